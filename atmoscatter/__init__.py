@@ -1,11 +1,18 @@
 """atmoscatter: sky colour and brightness from the physics of atmospheric light scattering.
 
 The public API is flat: ``import atmoscatter as ac`` and use ``ac.<name>``.
-Modules are organised by physical topic (see ``docs/architecture.md``).
+Modules are organised by physical topic (see ``docs/architecture.md``); each
+module defines ``__all__`` and is re-exported here, one line per module.
 """
 
 from __future__ import annotations
 
 __version__ = "0.1.0"
 
-__all__ = ["__version__"]
+# --- re-exports: one line per module (keep sorted within groups) -------------
+# foundation
+# sun
+# analytic skies
+# numerical scattering
+# scenes, rendering, files, CLI
+# oracle toolkit
