@@ -331,10 +331,10 @@ class TestSHIrradiance:
         a = clamped_cosine_sh_coefficients(8)
         np.testing.assert_allclose(a[:5], [np.pi, 2 * np.pi / 3, np.pi / 4, 0, -np.pi / 24],
                                    atol=1e-15)
-        for l in range(9):  # noqa: E741
-            ref = 2 * np.pi * integrate.quad(lambda x, l=l: x * special.eval_legendre(l, x),
+        for deg in range(9):
+            ref = 2 * np.pi * integrate.quad(lambda x, k=deg: x * special.eval_legendre(k, x),
                                              0, 1, epsabs=1e-14)[0]
-            assert a[l] == pytest.approx(ref, abs=1e-12)
+            assert a[deg] == pytest.approx(ref, abs=1e-12)
 
     def test_exact_for_band_limited_radiance(self):
         rng = np.random.default_rng(3)
