@@ -165,10 +165,11 @@ def sphere_quadrature(n_theta: int = DEFAULT_N_THETA, n_phi: int | None = None, 
 def latlong_quadrature(width: int, height: int):
     r"""Pixel-centre directions and exact pixel solid angles of an equirectangular map.
 
-    Layout (the one :mod:`atmoscatter.compare` assumes for lat-long files): row 0 is the
-    zenith edge (θ = 0) and the last row the nadir edge (θ = π), rows uniform in θ; column
-    ``j`` has geographic azimuth ``(j + 0.5)/width · 2π`` measured from north toward east,
-    i.e. the left edge looks north and the map runs north → east → south → west.
+    Layout (OpenEXR ``envmap = latlong``, the one the renderer writes and
+    :mod:`atmoscatter.compare` assumes): row 0 touches the zenith (θ = 0) and the last row
+    the nadir (θ = π), rows uniform in θ; column ``j`` looks at geographic azimuth (from
+    north toward east) ``2π (j + ½)/width − π``: south at both edges, north in the centre
+    column, east at three quarters of the width.
 
     Parameters
     ----------
@@ -188,7 +189,7 @@ def latlong_quadrature(width: int, height: int):
     height = _check_count(height, "height", 1)
     edges = np.linspace(0.0, np.pi, height + 1)
     theta = 0.5 * (edges[:-1] + edges[1:])
-    az = (np.arange(width) + 0.5) * (2.0 * np.pi / width)
+    az = (np.arange(width) + 0.5) * (2.0 * np.pi / width) - np.pi
     st, ct = np.sin(theta)[:, None], np.cos(theta)[:, None]
     dirs = np.stack(
         np.broadcast_arrays(st * np.sin(az)[None, :], st * np.cos(az)[None, :], ct), axis=-1

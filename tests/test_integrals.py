@@ -66,12 +66,14 @@ class TestQuadrature:
         d, om = latlong_quadrature(16, 8)
         assert d.shape == (8, 16, 3) and om.shape == (8, 16)
         assert om.sum() == pytest.approx(4 * np.pi, rel=1e-14)
-        # row 0 near the zenith, last row near the nadir; column 0 looks (nearly) north,
-        # column width/4 east (geographic azimuth from north toward east)
+        # row 0 near the zenith, last row near the nadir; OpenEXR lat-long columns:
+        # geographic azimuth 2π(c + ½)/W − π (south at the edges, north in the centre)
         assert d[0, 0, 2] > 0.98 and d[-1, 0, 2] < -0.98
         mid = latlong_quadrature(4, 2)[0]
         np.testing.assert_allclose(np.arctan2(mid[0, :, 0], mid[0, :, 1]),
-                                   [np.pi / 4, 3 * np.pi / 4, -3 * np.pi / 4, -np.pi / 4])
+                                   [-3 * np.pi / 4, -np.pi / 4, np.pi / 4, 3 * np.pi / 4])
+        # elevation of row r: π/2 − π(r + ½)/H
+        np.testing.assert_allclose(np.arcsin(d[:, 0, 2]), np.pi / 2 - np.pi * (np.arange(8) + 0.5) / 8)
 
     def test_bad_resolution(self):
         with pytest.raises(ValueError, match="n_theta"):
