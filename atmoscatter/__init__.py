@@ -10,21 +10,21 @@ from __future__ import annotations
 __version__ = "0.1.0"
 
 # --- re-exports: one line per module (keep sorted within groups) -------------
+# ruff: noqa: I001  (grouped by topic under the comments below, sorted within groups)
 # foundation
 from .atmosphere import *  # noqa: F403
 from .colour import *  # noqa: F403
-
-# sun
-# analytic skies
-# numerical scattering
-# scenes, rendering, files, CLI
-# oracle toolkit
-from .compare import *  # noqa: F403
 from .geometry import *  # noqa: F403
-from .integrals import *  # noqa: F403
 from .optical_length import *  # noqa: F403
 from .phase import *  # noqa: F403
 from .presets import *  # noqa: F403
 from .scattering import *  # noqa: F403
 from .solar import *  # noqa: F403
 from .standard_atmosphere import *  # noqa: F403
+# sun
+# analytic skies
+# numerical scattering
+# scenes, rendering, files, CLI
+# oracle toolkit
+from .compare import *  # noqa: F403
+from .integrals import *  # noqa: F403
