@@ -223,7 +223,7 @@ def optical_length(
     >>> zen = optical_length(ExponentialProfile(8000.0), 0.0, 1.0,
     ...                      planet_radius=6.36e6, top_radius=6.42e6)
     >>> round(float(zen), 3)   # 8000·(1 − e^(−60/8))
-    7995.474
+    7995.575
     """
     if not isinstance(profile, ExponentialProfile | TabulatedProfile | TentProfile):
         raise TypeError(f"profile must be a density profile object, got {type(profile).__name__}")
