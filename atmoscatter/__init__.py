@@ -12,6 +12,7 @@ __version__ = "0.1.0"
 # --- re-exports: one line per module (keep sorted within groups) -------------
 # foundation
 # sun
+from .sun import *  # noqa: F403
 # analytic skies
 # numerical scattering
 # scenes, rendering, files, CLI
