@@ -12,7 +12,7 @@ Public objects
   with flags for polar day and polar night.
 - :class:`SunriseSunset`: the result of :func:`sunrise_sunset`.
 - :func:`earth_sun_distance`: Earth–Sun distance [AU] at given times.
-- :func:`delta_t`: the default TT − UT [s] (Espenak & Meeus polynomials).
+- :func:`default_delta_t`: the default TT − UT [s] (Espenak & Meeus polynomials).
 - :func:`sun_direction`: zenith/azimuth → unit vector in the local frame (x east, y north, z up).
 - :func:`sky_sun`: a :class:`SunPosition` → :class:`SkySun`, what sky models consume
   (direction, zenith, azimuth, extraterrestrial irradiance scale).
@@ -60,7 +60,7 @@ __all__ = [
     "sun_position",
     "sunrise_sunset",
     "earth_sun_distance",
-    "delta_t",
+    "default_delta_t",
     "sun_direction",
     "sky_sun",
 ]
@@ -237,7 +237,7 @@ def _delta_t_of_year(y: np.ndarray) -> np.ndarray:
     return out
 
 
-def delta_t(time):
+def default_delta_t(time):
     """Default ΔT = TT − UT [s] used by :func:`sun_position` when ``delta_t=None``.
 
     Parameters
@@ -260,7 +260,7 @@ def delta_t(time):
 
     Examples
     --------
-    >>> round(float(delta_t(np.datetime64("2000-01-01T12:00"))), 2)
+    >>> round(float(default_delta_t(np.datetime64("2000-01-01T12:00"))), 2)
     63.86
     """
     d = _days_since_j2000(_as_datetime64(time), "time")
@@ -666,7 +666,7 @@ def sun_position(
     refraction : bool
         Whether ``zenith``/``direction`` include atmospheric refraction.
     delta_t : array_like or None
-        TT − UT [s], broadcastable to ``time``.  ``None`` uses :func:`delta_t` (Espenak & Meeus
+        TT − UT [s], broadcastable to ``time``.  ``None`` uses :func:`default_delta_t` (Espenak & Meeus
         polynomials); with an explicit value the SPA terms are evaluated directly at every
         time (no interpolation), which is slower.
 
@@ -687,7 +687,7 @@ def sun_position(
     2-day interval — evaluated at nodes every 2 days and interpolated with a 4-point cubic;
     the added error is < 2e-5° (measured ~4e-6°, see ``tests/test_sun.py``).  Validity: the SPA
     claims ±0.0003° for years −2000…6000 given the true ΔT; the default ΔT polynomial limits
-    the absolute accuracy (see :func:`delta_t`).
+    the absolute accuracy (see :func:`default_delta_t`).
 
     *iqbal*: seed 003 Sec. 3 with errata 003.1 (solar time with east-positive longitude):
     declination ``δ = 0.4093 sin(2π(J − 81)/368)``, solar time
@@ -789,13 +789,13 @@ def earth_sun_distance(time, *, delta_t=None):
     time : datetime-like or array of them
         UTC instants (see :func:`sun_position`).
     delta_t : array_like or None
-        TT − UT [s]; ``None`` uses :func:`delta_t`.
+        TT − UT [s]; ``None`` uses :func:`default_delta_t`.
 
     Returns
     -------
     ndarray or float
-        Distance [AU], between about 0.9833 (early January) and 1.0167 (early July); accuracy
-        ~1e-8 AU.  NaT elements give NaN.
+        Distance [AU], between about 0.9833 (early January) and 1.0167 (early July); within
+        1e-7 AU of a direct SPA evaluation (interpolation bound).  NaT elements give NaN.
 
     Examples
     --------
@@ -868,7 +868,7 @@ def sunrise_sunset(dates, latitude, longitude, *, horizon=HORIZON_APPARENT, delt
         (−0.8333°: standard refraction plus semi-diameter).  Use e.g. ``np.deg2rad(-6)`` for
         civil twilight.  Must be in (−π/2, π/2).
     delta_t : array_like or None
-        TT − UT [s]; ``None`` uses :func:`delta_t`.
+        TT − UT [s]; ``None`` uses :func:`default_delta_t`.
 
     Returns
     -------
@@ -920,7 +920,8 @@ def sunrise_sunset(dates, latitude, longitude, *, horizon=HORIZON_APPARENT, delt
         c = cols(t)
         t = t - _hour_angle(t, lon_rad, c["q"]) / _TWO_PI
     noon = t
-    bad = ~np.isfinite(noon)
+    bad = ~np.isfinite(noon) | ~np.isfinite(phi) | ~np.isfinite(np.broadcast_to(sin_h0, shape))
+    noon = np.where(bad, np.nan, noon)
 
     def cos_h0(c):
         sdec = c["sin_dec"]
