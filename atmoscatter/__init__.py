@@ -21,6 +21,7 @@ from .scattering import *  # noqa: F403
 from .solar import *  # noqa: F403
 from .standard_atmosphere import *  # noqa: F403
 # sun
+from .sun import *  # noqa: F403
 # analytic skies
 # numerical scattering
 # scenes, rendering, files, CLI
