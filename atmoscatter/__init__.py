@@ -13,6 +13,8 @@ __version__ = "0.1.0"
 # foundation
 # sun
 # analytic skies
+from .sky.perez import *  # noqa: F403
+from .sky.preetham import *  # noqa: F403
 # numerical scattering
 # scenes, rendering, files, CLI
 # oracle toolkit
