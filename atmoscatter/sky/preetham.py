@@ -58,6 +58,7 @@ from functools import lru_cache
 import numpy as np
 
 from .._validate import as_float_array, check_option
+from ..colour import XYZ_to_linear_rgb, spectral_to_XYZ
 from .perez import _horizon_term
 
 try:  # the compiled kernel is optional: the NumPy path below computes the same model
@@ -504,7 +505,7 @@ preetham_sky.__doc__ += (
     >>> sun = np.array([0.0, np.sin(np.radians(40)), np.cos(np.radians(40))])
     >>> XYZ = ac.preetham_sky([0.0, 0.0, 1.0], sun, 3.0)
     >>> round(float(XYZ[1]) / 1000, 3)   # zenith luminance Y_z [kcd m^-2]
-    3.722
+    8.211
     """
 )
 
@@ -534,27 +535,13 @@ preetham_sky_Yxy.__doc__ += (
 def _xyz_to_rgb_matrix(colourspace: str) -> np.ndarray:
     """The linear XYZ → RGB matrix of ``colourspace`` as the colour wrappers apply it.
 
-    Obtained by applying the project's :func:`atmoscatter.colour.XYZ_to_linear_rgb` (or
-    colour-science's ``XYZ_to_RGB`` without chromatic adaptation, if the wrapper is absent)
-    to the unit vectors, so no matrix is copied by hand and the fused kernel agrees with the
-    wrappers by construction.
+    Obtained by applying :func:`atmoscatter.XYZ_to_linear_rgb` (colour-science's
+    normalised primary matrix, no chromatic adaptation) to the unit vectors, so no matrix is
+    copied by hand and the fused kernel agrees with the wrapper by construction.
     """
-    import colour
-
-    check_option(colourspace, "colourspace", colour.RGB_COLOURSPACES.keys())
-    try:
-        from ..colour import XYZ_to_linear_rgb
-    except ImportError:
-        XYZ_to_linear_rgb = None
-    eye = np.eye(3)
-    if XYZ_to_linear_rgb is not None:
-        rgb = np.asarray(XYZ_to_linear_rgb(eye, colourspace=colourspace), dtype=np.float64)
-    else:
-        rgb = np.asarray(
-            colour.XYZ_to_RGB(eye, colourspace, illuminant=None, apply_cctf_encoding=False),
-            dtype=np.float64,
-        )
-    m = np.ascontiguousarray(rgb.T)
+    m = np.ascontiguousarray(
+        np.asarray(XYZ_to_linear_rgb(np.eye(3), colourspace=colourspace), dtype=np.float64).T
+    )
     m.flags.writeable = False
     return m
 
@@ -621,26 +608,8 @@ def _daylight_basis(wavelengths: tuple[float, ...]) -> tuple[np.ndarray, np.ndar
         sd = basis[name]
         cols.append(np.interp(wl, sd.wavelengths, sd.values))
     S = np.stack(cols, axis=-1)
-    XYZ = _spectral_to_XYZ(S.T, wl)  # (3 bases, 3 XYZ)
+    XYZ = np.asarray(spectral_to_XYZ(S.T, wl), dtype=np.float64)  # (3 bases, 3 XYZ)
     return S, np.ascontiguousarray(XYZ.T)  # XYZ columns = bases
-
-
-def _spectral_to_XYZ(values: np.ndarray, wl: np.ndarray) -> np.ndarray:
-    try:
-        from ..colour import spectral_to_XYZ
-    except ImportError:
-        spectral_to_XYZ = None
-    if spectral_to_XYZ is not None:
-        return np.asarray(spectral_to_XYZ(values, wl), dtype=np.float64)
-    # Fallback until the colour wrappers exist: CIE 1931 2° CMFs, K_m = 683 lm/W, trapezoid.
-    import colour  # pragma: no cover
-
-    cmfs = colour.MSDS_CMFS["CIE 1931 2 Degree Standard Observer"]  # pragma: no cover
-    xbar = np.stack(  # pragma: no cover
-        [np.interp(wl, cmfs.wavelengths, cmfs.values[:, i], left=0, right=0) for i in range(3)],
-        axis=-1,
-    )
-    return 683.0 * np.trapezoid(values[..., :, None] * xbar, wl, axis=-2)  # pragma: no cover
 
 
 def _daylight_M(x, y, method, basis_XYZ):
