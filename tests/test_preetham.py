@@ -55,7 +55,7 @@ def ref_Yxy(theta, phi, ts, phis, T):
     cg = math.sin(ts) * math.sin(theta) * math.cos(phi - phis) + math.cos(ts) * math.cos(theta)
     gamma = math.acos(max(-1.0, min(1.0, cg)))
     out = []
-    for z, tab in zip(ref_zenith(T, ts), (REF_Y, REF_x, REF_y)):
+    for z, tab in zip(ref_zenith(T, ts), (REF_Y, REF_x, REF_y), strict=True):
         c = [a * T + b for a, b in tab]
         out.append(z * _F(theta, gamma, c) / _F(0.0, ts, c))
     return out
@@ -91,9 +91,9 @@ def test_Yxy_matches_scalar_transcription(T, tsd, psd, backend):
     rng = np.random.default_rng(int(T * 10 + tsd))
     thetas = np.concatenate([[0.0, 0.01, 1.0, 1.5, math.pi / 2 - 1e-6], rng.uniform(0, math.pi / 2, 40)])
     phis = rng.uniform(0, 2 * math.pi, thetas.size)
-    views = np.array([direction(t, p) for t, p in zip(thetas, phis)])
+    views = np.array([direction(t, p) for t, p in zip(thetas, phis, strict=True)])
     got = ac.preetham_sky_Yxy(views, direction(ts, ps), T, backend=backend)
-    ref = np.array([ref_Yxy(t, p, ts, ps, T) for t, p in zip(thetas, phis)])
+    ref = np.array([ref_Yxy(t, p, ts, ps, T) for t, p in zip(thetas, phis, strict=True)])
     np.testing.assert_allclose(got, ref, rtol=1e-10)  # issue target: <= 1e-6
 
 
@@ -153,7 +153,7 @@ def test_angle_and_direction_apis_agree():
 def test_distribution_coefficients_table():
     c = ac.preetham_distribution_coefficients(3.0)
     assert c.shape == (3, 5)
-    for row, tab in zip(c, (REF_Y, REF_x, REF_y)):
+    for row, tab in zip(c, (REF_Y, REF_x, REF_y), strict=True):
         np.testing.assert_allclose(row, [a * 3.0 + b for a, b in tab], rtol=1e-15)
     assert ac.preetham_distribution_coefficients(np.array([2.0, 4.0, 8.0])).shape == (3, 3, 5)
 
@@ -183,7 +183,7 @@ def test_spectral_shape_is_colour_science_D_series():
     wl = np.arange(400.0, 701.0, 10.0)
     L = ac.preetham_sky_spectral(views, sun, 2.5, wavelengths=wl)
     Yxy = ac.preetham_sky_Yxy(views, sun, 2.5)
-    for row, (Y, x, y) in zip(L, Yxy):
+    for row, (_Y, x, y) in zip(L, Yxy, strict=True):
         sd = colour.sd_CIE_illuminant_D_series(np.array([x, y]), M1_M2_rounding=False)
         ref = np.array([sd[w] for w in wl])
         np.testing.assert_allclose(row / row[10], ref / ref[10], rtol=1e-9)

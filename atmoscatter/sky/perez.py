@@ -82,7 +82,7 @@ def perez(theta, gamma, A, B, C, D, E):
     """
     theta = as_float_array(theta, "theta")
     gamma = as_float_array(gamma, "gamma")
-    A, B, C, D, E = (as_float_array(v, n) for v, n in zip((A, B, C, D, E), "ABCDE"))
+    A, B, C, D, E = (as_float_array(v, n) for v, n in zip((A, B, C, D, E), "ABCDE", strict=True))
     if np.any(B > 0):
         bad = np.asarray(B)[np.asarray(B) > 0].ravel()[0]
         raise ValueError(
