@@ -322,13 +322,28 @@ def _views(view_directions) -> np.ndarray:
 
 
 def _setup(sun: np.ndarray, T: float):
-    """Per-call constants: coefficient table (3, 5) and zenith values divided by F(0, θ_s)."""
-    ts = math.acos(min(max(sun[2], -1.0), 1.0))
-    coef = _coefficients(np.asarray(T))  # (3, 5)
-    zen = _zenith(np.asarray(T), np.asarray(ts))  # (3,)
-    A, B, C, D, E = coef.T
-    F0 = (1.0 + A * np.exp(B)) * (1.0 + C * np.exp(D * ts) + E * math.cos(ts) ** 2)
-    return np.ascontiguousarray(coef), np.ascontiguousarray(zen / F0)
+    """Per-call constants: coefficient table (3, 5) and zenith values divided by F(0, θ_s).
+
+    Scalar Python arithmetic (the same formulas as :func:`_zenith`), to keep the per-call
+    overhead of the direction API small.
+    """
+    ts = math.acos(min(max(float(sun[2]), -1.0), 1.0))
+    M = PREETHAM_DISTRIBUTION_MATRIX
+    coef = M[..., 0] * T + M[..., 1]  # (3, 5)
+    chi = (4.0 / 9.0 - T / 120.0) * (math.pi - 2.0 * ts)
+    Yz = ((4.0453 * T - 4.9710) * math.tan(chi) - 0.2155 * T + 2.4192) * 1000.0
+    t_pow = (T * T, T, 1.0)
+    s_pow = (ts**3, ts**2, ts, 1.0)
+    Mxy = PREETHAM_ZENITH_CHROMATICITY_MATRICES.tolist()
+    xz, yz = (
+        sum(t_pow[i] * m[i][j] * s_pow[j] for i in range(3) for j in range(4)) for m in Mxy
+    )
+    cs2 = math.cos(ts) ** 2
+    zen = []
+    for k, z in enumerate((Yz, xz, yz)):
+        A, B, C, D, E = coef[k].tolist()
+        zen.append(z / ((1.0 + A * math.exp(B)) * (1.0 + C * math.exp(D * ts) + E * cs2)))
+    return np.ascontiguousarray(coef), np.array(zen)
 
 
 def _numpy_chunk(v, sun, coef, zen_scaled, matrix, kind, out):
@@ -351,76 +366,164 @@ def _numpy_chunk(v, sun, coef, zen_scaled, matrix, kind, out):
     out[...] = XYZ if kind == _KIND_XYZ else XYZ @ matrix.T
 
 
+# The float32 path replaces the six exponentials and the arccos per direction by linear
+# interpolation in lookup tables of the two Perez factors (an algebraic shortcut, checked
+# against the float64 formula in tests/test_preetham.py with a stated tolerance of 1e-5
+# relative; measured ≤ 2e-6):
+#   circumsolar factor  1 + C e^{Dγ} + E cos²γ, tabulated uniformly in sin(γ/2) = |v̂ − ŝ|/2
+#       for γ ≤ 90° and in cos(γ/2) = |v̂ + ŝ|/2 for γ ≥ 90° (both smooth in their halves,
+#       and computed from differences of unit vectors, so accurate at γ → 0 and γ → 180°
+#       where acos of a dot product is ill-conditioned);
+#   horizon factor      1 + A e^{B/cos θ}, tabulated uniformly in cos θ ∈ [0, 1].
+_TABLE_NODES = 4096
+_SQRT_HALF = math.sqrt(0.5)
+#: Below this many directions the serial kernel is used: on a busy machine the parallel
+#: barrier can cost a whole scheduler time slice (milliseconds), more than the work itself.
+_PARALLEL_MIN = 1 << 15
+
+
+@lru_cache(maxsize=16)
+def _tables(T: float) -> tuple[np.ndarray, np.ndarray]:
+    """Lookup tables: circumsolar (2, N, 3) (near, far halves) and horizon (N, 3); Y, x, y last."""
+    coef = _coefficients(np.asarray(T))
+    A, B, C, D, E = coef.T
+    s = np.linspace(0.0, _SQRT_HALF, _TABLE_NODES)
+    near = 2.0 * np.arcsin(s)  # γ in [0, π/2], node = sin(γ/2)
+    far = np.pi - near  # γ in [π/2, π], node = cos(γ/2)
+
+    g = np.stack([near, far])[..., None]
+    circumsolar = np.ascontiguousarray(1.0 + C * np.exp(D * g) + E * np.cos(g) ** 2)
+    c = np.linspace(0.0, 1.0, _TABLE_NODES)[:, None]
+    horizon = np.ascontiguousarray(1.0 + A * _horizon_term(c, B))
+    return circumsolar, horizon
+
+
 if _HAVE_NUMBA:
+    _jit_inline = numba.njit(inline="always", cache=True, error_model="numpy")
 
-    @numba.njit(parallel=True, cache=True, nogil=True)
-    def _kernel(v, sun, coef, zen, matrix, kind, single_exp, out):  # pragma: no cover - compiled
-        """Fused per-direction evaluation (numba, parallel over directions).
+    @_jit_inline
+    def _emit(out, i, Y, x, y, kind, M):  # pragma: no cover - compiled
+        """Write Yxy (kind 1), XYZ (kind 0) or M·XYZ (kind 2) into row i of ``out``."""
+        if kind == 1:
+            out[i, 0] = Y
+            out[i, 1] = x
+            out[i, 2] = y
+            return
+        X = x / y * Y
+        Z = (1.0 - x - y) / y * Y
+        if kind == 0:
+            out[i, 0] = X
+            out[i, 1] = Y
+            out[i, 2] = Z
+        else:
+            out[i, 0] = M[0, 0] * X + M[0, 1] * Y + M[0, 2] * Z
+            out[i, 1] = M[1, 0] * X + M[1, 1] * Y + M[1, 2] * Z
+            out[i, 2] = M[2, 0] * X + M[2, 1] * Y + M[2, 2] * Z
 
-        Geometry (norms, cos θ, cos γ, γ = acos) and the final products are computed in
-        float64 for every input type. With ``single_exp`` (float32 input) the six exponentials
-        are evaluated in single precision (``expf``), about 3.5× faster than ``exp``; their
-        arguments are small and exact to a float32 ulp, so the result stays within ~1e-6
-        relative of the float64 evaluation (tested at 2e-4).
-        """
-        n = v.shape[0]
-        sx = sun[0]
-        sy = sun[1]
-        sz = sun[2]
-        for i in numba.prange(n):
-            x = np.float64(v[i, 0])
-            y = np.float64(v[i, 1])
-            z = np.float64(v[i, 2])
-            inv = 1.0 / math.sqrt(x * x + y * y + z * z)
-            ct = z * inv
-            cg = (x * sx + y * sy + z * sz) * inv
-            if not (ct == ct and cg == cg):  # NaN (or zero vector) in, NaN out
-                out[i, 0] = np.nan
-                out[i, 1] = np.nan
-                out[i, 2] = np.nan
-                continue
-            cg = min(max(cg, -1.0), 1.0)
-            ct = min(max(ct, 0.0), 1.0)
-            g = math.acos(cg)
-            cg2 = cg * cg
-            r0 = 0.0
-            r1 = 0.0
-            r2 = 0.0
-            for k in range(3):
-                A = coef[k, 0]
-                B = coef[k, 1]
-                C = coef[k, 2]
-                D = coef[k, 3]
-                E = coef[k, 4]
-                den = max(ct, -B * (1.0 / 745.0) + 2.2250738585072014e-308)
-                if single_exp:
-                    h = np.float64(math.exp(np.float32(B / den)))
-                    c = np.float64(math.exp(np.float32(D * g)))
-                else:
-                    h = math.exp(B / den)
-                    c = math.exp(D * g)
-                f = zen[k] * (1.0 + A * h) * (1.0 + C * c + E * cg2)
-                if k == 0:
-                    r0 = f
-                elif k == 1:
-                    r1 = f
-                else:
-                    r2 = f
-            if kind == 1:
-                out[i, 0] = r0
-                out[i, 1] = r1
-                out[i, 2] = r2
-                continue
-            X = r1 / r2 * r0
-            Z = (1.0 - r1 - r2) / r2 * r0
-            if kind == 0:
-                out[i, 0] = X
-                out[i, 1] = r0
-                out[i, 2] = Z
+    @_jit_inline
+    def _direct_point(x, y, z, sx, sy, sz, coef, zen):  # pragma: no cover - compiled
+        """Preetham Yxy of one direction from the formulas (float64, exact)."""
+        inv = 1.0 / math.sqrt(x * x + y * y + z * z)
+        ct = z * inv
+        cg = (x * sx + y * sy + z * sz) * inv
+        if not (ct == ct and cg == cg):  # NaN (or a zero vector) in, NaN out
+            return np.nan, np.nan, np.nan
+        cg = min(max(cg, -1.0), 1.0)
+        ct = min(max(ct, 0.0), 1.0)
+        g = math.acos(cg)
+        cg2 = cg * cg
+        r0 = 0.0
+        r1 = 0.0
+        r2 = 0.0
+        for k in range(3):
+            B = coef[k, 1]
+            # e^{B/cos θ} with the horizon limit: see perez._horizon_term
+            den = max(ct, -B * (1.0 / 745.0) + 2.2250738585072014e-308)
+            f = (
+                zen[k]
+                * (1.0 + coef[k, 0] * math.exp(B / den))
+                * (1.0 + coef[k, 2] * math.exp(coef[k, 3] * g) + coef[k, 4] * cg2)
+            )
+            if k == 0:
+                r0 = f
+            elif k == 1:
+                r1 = f
             else:
-                out[i, 0] = matrix[0, 0] * X + matrix[0, 1] * r0 + matrix[0, 2] * Z
-                out[i, 1] = matrix[1, 0] * X + matrix[1, 1] * r0 + matrix[1, 2] * Z
-                out[i, 2] = matrix[2, 0] * X + matrix[2, 1] * r0 + matrix[2, 2] * Z
+                r2 = f
+        return r0, r1, r2
+
+    @_jit_inline
+    def _table_point(x, y, z, sx, sy, sz, circ, hor, zen):  # pragma: no cover - compiled
+        """Preetham Yxy of one direction by table interpolation (float32 path)."""
+        inv = 1.0 / math.sqrt(x * x + y * y + z * z)
+        x *= inv
+        y *= inv
+        z *= inv
+        dx = x - sx
+        dy = y - sy
+        dz = z - sz
+        px = x + sx
+        py = y + sy
+        pz = z + sz
+        u = 0.5 * math.sqrt(dx * dx + dy * dy + dz * dz)  # sin(γ/2)
+        w = 0.5 * math.sqrt(px * px + py * py + pz * pz)  # cos(γ/2)
+        if not (z == z and u == u and w == w):  # NaN (or a zero vector): never index with it
+            return np.nan, np.nan, np.nan
+        n1 = hor.shape[0] - 1
+        tc = min(max(z, 0.0), 1.0) * n1
+        ic = min(int(tc), n1 - 1)
+        fc = tc - ic
+        # (no array rebinding in the loop: that would cost NRT reference counting per element)
+        h = 0 if u <= w else 1
+        t = min(u, w) * (n1 / 0.7071067811865476)
+        ig = min(int(t), n1 - 1)
+        fg = t - ig
+        r0 = (hor[ic, 0] + fc * (hor[ic + 1, 0] - hor[ic, 0])) * (
+            circ[h, ig, 0] + fg * (circ[h, ig + 1, 0] - circ[h, ig, 0])
+        )
+        r1 = (hor[ic, 1] + fc * (hor[ic + 1, 1] - hor[ic, 1])) * (
+            circ[h, ig, 1] + fg * (circ[h, ig + 1, 1] - circ[h, ig, 1])
+        )
+        r2 = (hor[ic, 2] + fc * (hor[ic + 1, 2] - hor[ic, 2])) * (
+            circ[h, ig, 2] + fg * (circ[h, ig + 1, 2] - circ[h, ig, 2])
+        )
+        return zen[0] * r0, zen[1] * r1, zen[2] * r2
+
+    @numba.njit(parallel=True, cache=True, nogil=True, error_model="numpy")
+    def _direct_parallel(v, sun, coef, zen, M, kind, out):  # pragma: no cover - compiled
+        for i in numba.prange(v.shape[0]):
+            Y, x, y = _direct_point(
+                np.float64(v[i, 0]), np.float64(v[i, 1]), np.float64(v[i, 2]),
+                sun[0], sun[1], sun[2], coef, zen,
+            )  # fmt: skip
+            _emit(out, i, Y, x, y, kind, M)
+
+    @numba.njit(cache=True, nogil=True, error_model="numpy")
+    def _direct_serial(v, sun, coef, zen, M, kind, out):  # pragma: no cover - compiled
+        for i in range(v.shape[0]):
+            Y, x, y = _direct_point(
+                np.float64(v[i, 0]), np.float64(v[i, 1]), np.float64(v[i, 2]),
+                sun[0], sun[1], sun[2], coef, zen,
+            )  # fmt: skip
+            _emit(out, i, Y, x, y, kind, M)
+
+    @numba.njit(parallel=True, cache=True, nogil=True, error_model="numpy")
+    def _table_parallel(v, sun, circ, hor, zen, M, kind, out):  # pragma: no cover
+        for i in numba.prange(v.shape[0]):
+            Y, x, y = _table_point(
+                np.float64(v[i, 0]), np.float64(v[i, 1]), np.float64(v[i, 2]),
+                sun[0], sun[1], sun[2], circ, hor, zen,
+            )  # fmt: skip
+            _emit(out, i, Y, x, y, kind, M)
+
+    @numba.njit(cache=True, nogil=True, error_model="numpy")
+    def _table_serial(v, sun, circ, hor, zen, M, kind, out):  # pragma: no cover
+        for i in range(v.shape[0]):
+            Y, x, y = _table_point(
+                np.float64(v[i, 0]), np.float64(v[i, 1]), np.float64(v[i, 2]),
+                sun[0], sun[1], sun[2], circ, hor, zen,
+            )  # fmt: skip
+            _emit(out, i, Y, x, y, kind, M)
 
 
 def _evaluate(view_directions, sun_direction, turbidity, kind, matrix, out_of_range, backend):
@@ -432,6 +535,7 @@ def _evaluate(view_directions, sun_direction, turbidity, kind, matrix, out_of_ra
     v = _views(view_directions)
     shape = v.shape
     flat = np.ascontiguousarray(v.reshape(-1, 3))
+    n = flat.shape[0]
     out = np.empty(flat.shape, dtype=v.dtype)
     if sun[2] < 0.0:  # sun below the horizon: dark sky (documented policy)
         out[...] = 0.0
@@ -439,15 +543,22 @@ def _evaluate(view_directions, sun_direction, turbidity, kind, matrix, out_of_ra
             out[:, 1:] = _BLACK_xy
         out[np.isnan(flat).any(axis=1)] = np.nan
         return out.reshape(shape)
+    if n == 0:
+        return out.reshape(shape)
     coef, zen_scaled = _setup(sun, T)
     matrix = np.eye(3) if matrix is None else np.ascontiguousarray(matrix, dtype=np.float64)
-    if flat.shape[0] == 0:
-        return out.reshape(shape)
     if _HAVE_NUMBA and backend != "numpy":
-        _kernel(flat, sun, coef, zen_scaled, matrix, kind, v.dtype == np.float32, out)
+        parallel = n >= _PARALLEL_MIN
+        if v.dtype == np.float32:
+            circ, hor = _tables(T)
+            kernel = _table_parallel if parallel else _table_serial
+            kernel(flat, sun, circ, hor, zen_scaled, matrix, kind, out)
+        else:
+            kernel = _direct_parallel if parallel else _direct_serial
+            kernel(flat, sun, coef, zen_scaled, matrix, kind, out)
     else:
         with np.errstate(invalid="ignore", divide="ignore"):  # NaN/zero vectors give NaN
-            for start in range(0, flat.shape[0], _CHUNK):
+            for start in range(0, n, _CHUNK):
                 sl = slice(start, start + _CHUNK)
                 _numpy_chunk(flat[sl], sun, coef, zen_scaled, matrix, kind, out[sl])
     return out.reshape(shape)
@@ -458,8 +569,9 @@ _DIRECTION_PARAMETERS = """
     ----------
     view_directions : array_like
         Unit view directions, shape (..., 3), local frame x = east, y = north, z = up.
-        float32 input gives float32 output (computed with float64 geometry; within 2e-4
-        relative of float64, measured ~1e-6); anything else is evaluated in float64.
+        float32 input gives float32 output (compiled path: table interpolation of the
+        Perez factors, within 1e-5 relative of float64, measured ≤ 2e-6); anything else is
+        evaluated in float64 from the formulas.
         Non-unit vectors are normalised; NaN (or a zero vector) gives NaN.
     sun_direction : array_like
         Direction toward the sun, shape (3,), same frame (normalised internally).
