@@ -22,6 +22,7 @@ from .solar import *  # noqa: F403
 from .standard_atmosphere import *  # noqa: F403
 # sun
 # analytic skies
+from .sky.cie import *  # noqa: F403
 from .sky.perez import *  # noqa: F403
 from .sky.preetham import *  # noqa: F403
 # numerical scattering
