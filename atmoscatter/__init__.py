@@ -20,8 +20,11 @@ from .presets import *  # noqa: F403
 from .scattering import *  # noqa: F403
 from .solar import *  # noqa: F403
 from .standard_atmosphere import *  # noqa: F403
+
 # sun
 # analytic skies
+# isort: split
+from .sky.aerial import *  # noqa: F403
 from .sky.cie import *  # noqa: F403
 from .sky.perez import *  # noqa: F403
 from .sky.preetham import *  # noqa: F403
