@@ -20,9 +20,15 @@ from .presets import *  # noqa: F403
 from .scattering import *  # noqa: F403
 from .solar import *  # noqa: F403
 from .standard_atmosphere import *  # noqa: F403
+
 # sun
 from .sun import *  # noqa: F403
 # analytic skies
+# isort: split
+from .sky.aerial import *  # noqa: F403
+from .sky.cie import *  # noqa: F403
+from .sky.perez import *  # noqa: F403
+from .sky.preetham import *  # noqa: F403
 # numerical scattering
 # scenes, rendering, files, CLI
 # oracle toolkit
