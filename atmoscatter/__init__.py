@@ -18,10 +18,12 @@ from .optical_length import *  # noqa: F403
 from .phase import *  # noqa: F403
 from .presets import *  # noqa: F403
 from .scattering import *  # noqa: F403
-from .solar import *  # noqa: F403
-from .standard_atmosphere import *  # noqa: F403
+
 # sun
 # analytic skies
 # numerical scattering
+from .sky.single import *  # noqa: F403
+from .solar import *  # noqa: F403
+from .standard_atmosphere import *  # noqa: F403
 # scenes, rendering, files, CLI
 # oracle toolkit

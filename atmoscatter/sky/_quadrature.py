@@ -123,9 +123,9 @@ def prepare_atmosphere(atmosphere) -> PreparedAtmosphere:
         ex = np.asarray(c.extinction_array, dtype=float)
         if not (np.any(sc > 0) or np.any(ex > 0)):
             continue
-        for g, p in enumerate(profiles):
-            if p == c.profile:
-                break
+        matches = [i for i, p in enumerate(profiles) if p == c.profile]
+        if matches:
+            g = matches[0]
         else:
             profiles.append(c.profile)
             ext.append(np.zeros(nwl))
