@@ -229,6 +229,11 @@ def _graded_view_bounds(batch: _Batch, m: int) -> np.ndarray:
         rb = atm.planet_radius + bps
         sq = np.sqrt(np.maximum(rb * rb - p2[:, None], 0.0))
         cuts += [sq, -sq]
+        # where the sun ray's perigee crosses a breakpoint altitude the sun optical length
+        # has a derivative singularity: make those points panel boundaries as well
+        for radius in rb:
+            lo_b, hi_b = qd.shadow_interval(batch.r0, batch.v, batch.s, float(radius))
+            cuts.append(np.stack([lo_b + batch.s0, hi_b + batch.s0], axis=-1))
     bounds = np.concatenate(cuts, axis=-1)
     bounds = np.where(np.isfinite(bounds), bounds, sa[:, None])
     bounds = np.sort(np.clip(bounds, sa[:, None], sb[:, None]), axis=-1)
