@@ -30,5 +30,6 @@ from .sky.cie import *  # noqa: F403
 from .sky.perez import *  # noqa: F403
 from .sky.preetham import *  # noqa: F403
 # numerical scattering
+from .sky.single import *  # noqa: F403
 # scenes, rendering, files, CLI
 # oracle toolkit
