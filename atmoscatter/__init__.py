@@ -15,4 +15,10 @@ __version__ = "0.1.0"
 # analytic skies
 # numerical scattering
 # scenes, rendering, files, CLI
+from .scene import *  # noqa: F403
+from .directions import *  # noqa: F403
+from .models import *  # noqa: F403
+from .render import *  # noqa: F403
+from .exr import *  # noqa: F403
+from .preview import *  # noqa: F403
 # oracle toolkit
