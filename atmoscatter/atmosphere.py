@@ -1,0 +1,407 @@
+"""Atmosphere description: density profiles, constituents and the planet.
+
+Public objects
+--------------
+- Density profiles (relative density against altitude, 1 at the reference altitude):
+  :class:`ExponentialProfile`, :class:`TabulatedProfile`, :class:`TentProfile`.
+- :class:`Constituent`: one scattering/absorbing species (coefficients per wavelength at
+  density 1, a profile and a phase function).
+- :class:`Atmosphere`: planet radius, top-of-atmosphere radius, sample wavelengths and
+  constituents.
+
+All are frozen dataclasses validated on construction; per-wavelength sequences are stored as
+tuples of floats (hashable, immutable) and exposed as NumPy arrays via ``*_array``
+properties.  Presets live in :mod:`atmoscatter.presets`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from ._validate import as_float_array, check_finite, check_positive
+from .phase import CornetteShanksPhase, HenyeyGreensteinPhase, IsotropicPhase, RayleighPhase
+
+__all__ = [
+    "ExponentialProfile",
+    "TabulatedProfile",
+    "TentProfile",
+    "Constituent",
+    "Atmosphere",
+]
+
+_PHASE_TYPES = (RayleighPhase, HenyeyGreensteinPhase, CornetteShanksPhase, IsotropicPhase)
+
+
+@dataclass(frozen=True)
+class ExponentialProfile:
+    """Exponential relative density ``ρ(h) = exp(−(h − h₀)/H)``.
+
+    Parameters
+    ----------
+    scale_height : float
+        Scale height ``H`` [m], > 0.  Earth: 8000 m (air), 1200 m (aerosols) — Bruneton
+        (2017); seed 002 uses the same values.
+    reference_altitude : float
+        Altitude ``h₀`` [m] where the relative density is 1 (default 0, sea level).
+    """
+
+    scale_height: float
+    reference_altitude: float = 0.0
+
+    def __post_init__(self):
+        check_positive(self.scale_height, "scale_height", unit="m")
+        check_finite(self.reference_altitude, "reference_altitude")
+        object.__setattr__(self, "scale_height", float(self.scale_height))
+        object.__setattr__(self, "reference_altitude", float(self.reference_altitude))
+
+    def density(self, altitude):
+        """Relative density [-] at ``altitude`` [m] (broadcasts; any altitude is allowed)."""
+        h = as_float_array(altitude, "altitude")
+        # Clip the exponent: far below the reference altitude (inside a planet, never
+        # sampled by the integrators) the density would overflow.
+        x = np.minimum(-(h - self.reference_altitude) / self.scale_height, 700.0)
+        return np.exp(x)
+
+    @property
+    def breakpoints(self) -> tuple[float, ...]:
+        """Altitudes [m] where the profile is not smooth (none)."""
+        return ()
+
+    @property
+    def scale(self) -> float:
+        """Characteristic length [m] over which the density changes (the scale height)."""
+        return self.scale_height
+
+
+@dataclass(frozen=True)
+class TabulatedProfile:
+    """Relative density tabulated against altitude, interpolated log-linearly.
+
+    Between nodes the density is exponential (linear in ``log ρ``), which is exact for an
+    isothermal layer and is how the US Standard Atmosphere 1976 density is usually
+    interpolated.  Below the first node the first layer's exponential is extended; above the
+    last node the density is 0.  Zero densities are allowed (interpolated linearly).
+
+    Parameters
+    ----------
+    altitudes : sequence of float
+        Strictly increasing altitudes [m].
+    densities : sequence of float
+        Relative densities [-] (≥ 0) at those altitudes.
+    """
+
+    altitudes: tuple[float, ...]
+    densities: tuple[float, ...]
+
+    def __post_init__(self):
+        alt = check_finite(self.altitudes, "altitudes").astype(float).ravel()
+        den = check_positive(self.densities, "densities", allow_zero=True).astype(float).ravel()
+        if alt.size < 2 or alt.size != den.size:
+            raise ValueError(
+                f"altitudes and densities must have the same length >= 2, got {alt.size} and {den.size}"
+            )
+        if np.any(np.diff(alt) <= 0):
+            raise ValueError("altitudes must be strictly increasing")
+        object.__setattr__(self, "altitudes", tuple(alt.tolist()))
+        object.__setattr__(self, "densities", tuple(den.tolist()))
+
+    def density(self, altitude):
+        """Relative density [-] at ``altitude`` [m], log-linear between nodes."""
+        h = as_float_array(altitude, "altitude")
+        alt = np.asarray(self.altitudes)
+        den = np.asarray(self.densities)
+        positive = den > 0
+        if np.all(positive):
+            logd = np.log(den)
+            # linear extrapolation of log ρ below the first node
+            slope0 = (logd[1] - logd[0]) / (alt[1] - alt[0])
+            out = np.exp(np.interp(h, alt, logd))
+            below = h < alt[0]
+            out = np.where(below, np.exp(np.minimum(logd[0] + slope0 * (h - alt[0]), 700.0)), out)
+        else:
+            out = np.interp(h, alt, den)
+        return np.where(h > alt[-1], 0.0, out).astype(h.dtype if h.dtype.kind == "f" else float)
+
+    @property
+    def breakpoints(self) -> tuple[float, ...]:
+        """The tabulation altitudes [m] (the profile's slope changes there)."""
+        return self.altitudes
+
+    @property
+    def scale(self) -> float:
+        """Smallest local scale height [m] of the table (for truncation and sampling)."""
+        alt = np.asarray(self.altitudes)
+        den = np.asarray(self.densities)
+        ok = (den[1:] > 0) & (den[:-1] > 0)
+        if not np.any(ok):
+            return float(np.min(np.diff(alt)))
+        dlog = np.abs(np.diff(np.log(np.where(den > 0, den, 1.0))))[ok]
+        dz = np.diff(alt)[ok]
+        with np.errstate(divide="ignore"):
+            h = np.where(dlog > 0, dz / np.where(dlog > 0, dlog, 1.0), np.inf)
+        return float(min(np.min(h), np.min(np.diff(alt)) * 10))
+
+
+@dataclass(frozen=True)
+class TentProfile:
+    """Piecewise-linear "tent" density, 1 at ``center`` and 0 at ``center ± half_width``.
+
+    The ozone layer model of Bruneton (2017): density rising linearly from 10 km to a peak at
+    25 km and falling linearly to 0 at 40 km (``center=25e3, half_width=15e3``).
+
+    Parameters
+    ----------
+    center : float
+        Altitude of the peak [m].
+    half_width : float
+        Distance [m] from the peak to the altitudes where the density reaches 0, > 0.
+    """
+
+    center: float = 25e3
+    half_width: float = 15e3
+
+    def __post_init__(self):
+        check_finite(self.center, "center")
+        check_positive(self.half_width, "half_width", unit="m")
+        object.__setattr__(self, "center", float(self.center))
+        object.__setattr__(self, "half_width", float(self.half_width))
+
+    def density(self, altitude):
+        """Relative density [-] at ``altitude`` [m]."""
+        h = as_float_array(altitude, "altitude")
+        return np.maximum(1.0 - np.abs(h - self.center) / self.half_width, 0.0)
+
+    @property
+    def breakpoints(self) -> tuple[float, ...]:
+        """Altitudes [m] of the kinks: the two feet and the peak."""
+        return (self.center - self.half_width, self.center, self.center + self.half_width)
+
+    @property
+    def scale(self) -> float:
+        """Characteristic length [m]: the half width."""
+        return self.half_width
+
+
+_PROFILE_TYPES = (ExponentialProfile, TabulatedProfile, TentProfile)
+
+
+def _per_wavelength(value, name: str, n: int | None) -> tuple[float, ...]:
+    arr = check_positive(value, name, allow_zero=True, unit="m^-1").astype(float)
+    if arr.ndim > 1:
+        raise ValueError(f"{name} must be a scalar or a 1-D sequence (one per wavelength), got shape {arr.shape}")
+    arr = np.atleast_1d(arr)
+    if n is not None and arr.size == 1 and n > 1:
+        arr = np.repeat(arr, n)
+    return tuple(arr.tolist())
+
+
+@dataclass(frozen=True)
+class Constituent:
+    """One species of the atmosphere (molecules, aerosols, an absorber such as ozone).
+
+    Parameters
+    ----------
+    name : str
+        Identifier (e.g. ``"rayleigh"``, ``"mie"``, ``"ozone"``).
+    scattering : sequence of float
+        Scattering coefficient at relative density 1, one per wavelength [m⁻¹], ≥ 0.
+    absorption : sequence of float
+        Absorption coefficient at relative density 1, one per wavelength [m⁻¹], ≥ 0.
+        A scalar is broadcast to all wavelengths.
+    profile : ExponentialProfile, TabulatedProfile or TentProfile
+        Relative density against altitude.
+    phase : RayleighPhase, HenyeyGreensteinPhase, CornetteShanksPhase or IsotropicPhase
+        Scattering phase function (ignored where ``scattering`` is 0).
+    """
+
+    name: str
+    scattering: Sequence[float]
+    absorption: Sequence[float] = 0.0
+    profile: Any = field(default_factory=lambda: ExponentialProfile(8000.0))
+    phase: Any = field(default_factory=RayleighPhase)
+
+    def __post_init__(self):
+        if not isinstance(self.name, str) or not self.name:
+            raise TypeError(f"name must be a non-empty string, got {self.name!r}")
+        sca = _per_wavelength(self.scattering, f"{self.name}.scattering", None)
+        ab = _per_wavelength(self.absorption, f"{self.name}.absorption", len(sca))
+        if len(sca) == 1 and len(ab) > 1:
+            sca = sca * len(ab)
+        if len(ab) != len(sca):
+            raise ValueError(
+                f"{self.name}: scattering has {len(sca)} values but absorption has {len(ab)}"
+            )
+        if not isinstance(self.profile, _PROFILE_TYPES):
+            raise TypeError(
+                f"{self.name}.profile must be one of {[t.__name__ for t in _PROFILE_TYPES]}, "
+                f"got {type(self.profile).__name__}"
+            )
+        if not isinstance(self.phase, _PHASE_TYPES):
+            raise TypeError(
+                f"{self.name}.phase must be one of {[t.__name__ for t in _PHASE_TYPES]}, "
+                f"got {type(self.phase).__name__}"
+            )
+        object.__setattr__(self, "scattering", sca)
+        object.__setattr__(self, "absorption", ab)
+
+    @property
+    def scattering_array(self) -> np.ndarray:
+        """Scattering coefficients at density 1 [m⁻¹], shape (n_wavelengths,)."""
+        return np.asarray(self.scattering, dtype=float)
+
+    @property
+    def absorption_array(self) -> np.ndarray:
+        """Absorption coefficients at density 1 [m⁻¹], shape (n_wavelengths,)."""
+        return np.asarray(self.absorption, dtype=float)
+
+    @property
+    def extinction_array(self) -> np.ndarray:
+        """Extinction = scattering + absorption at density 1 [m⁻¹], shape (n_wavelengths,)."""
+        return self.scattering_array + self.absorption_array
+
+    @property
+    def single_scattering_albedo(self) -> np.ndarray:
+        """Scattering / extinction [-] (1 where the extinction is 0)."""
+        ext = self.extinction_array
+        return np.where(ext > 0, self.scattering_array / np.where(ext > 0, ext, 1.0), 1.0)
+
+    @property
+    def is_empty(self) -> bool:
+        """True if the constituent neither scatters nor absorbs at any wavelength."""
+        return not any(self.scattering) and not any(self.absorption)
+
+
+@dataclass(frozen=True)
+class Atmosphere:
+    """A spherical planet with a layered atmosphere.
+
+    Parameters
+    ----------
+    planet_radius : float
+        Radius of the ground sphere [m], > 0 (Earth 6.36e6, Bruneton 2017).
+    top_radius : float
+        Radius of the top of the atmosphere [m], > ``planet_radius`` (Earth 6.42e6).
+        Nothing scatters above it.
+    wavelengths : sequence of float
+        Sample wavelengths [nm], > 0, one per channel (the last axis of every result).
+    constituents : sequence of Constituent
+        Species; each must have one coefficient per wavelength.
+
+    Examples
+    --------
+    >>> import atmoscatter as ac
+    >>> atm = ac.Atmosphere(planet_radius=6.36e6, top_radius=6.42e6,
+    ...     wavelengths=[680.0, 550.0, 440.0],
+    ...     constituents=[ac.Constituent(name="rayleigh", scattering=[5.8e-6, 1.36e-5, 3.31e-5],
+    ...         absorption=[0, 0, 0], profile=ac.ExponentialProfile(scale_height=8000.0),
+    ...         phase=ac.RayleighPhase())])
+    >>> atm.n_wavelengths
+    3
+    """
+
+    planet_radius: float
+    top_radius: float
+    wavelengths: Sequence[float]
+    constituents: Sequence[Constituent] = ()
+    name: str = "custom"
+
+    def __post_init__(self):
+        check_positive(self.planet_radius, "planet_radius", unit="m")
+        check_positive(self.top_radius, "top_radius", unit="m")
+        if not float(self.top_radius) > float(self.planet_radius):
+            raise ValueError(
+                f"top_radius must be > planet_radius ({float(self.planet_radius)!r} m), "
+                f"got {float(self.top_radius)!r}"
+            )
+        wl = check_positive(self.wavelengths, "wavelengths", unit="nm").astype(float)
+        wl = np.atleast_1d(wl)
+        if wl.ndim != 1:
+            raise ValueError(f"wavelengths must be 1-D, got shape {wl.shape}")
+        cons = tuple(self.constituents)
+        for c in cons:
+            if not isinstance(c, Constituent):
+                raise TypeError(f"constituents must be Constituent objects, got {type(c).__name__}")
+            if len(c.scattering) != wl.size:
+                raise ValueError(
+                    f"constituent {c.name!r} has {len(c.scattering)} coefficients but the "
+                    f"atmosphere has {wl.size} wavelengths"
+                )
+        names = [c.name for c in cons]
+        if len(set(names)) != len(names):
+            raise ValueError(f"constituent names must be unique, got {names}")
+        object.__setattr__(self, "planet_radius", float(self.planet_radius))
+        object.__setattr__(self, "top_radius", float(self.top_radius))
+        object.__setattr__(self, "wavelengths", tuple(wl.tolist()))
+        object.__setattr__(self, "constituents", cons)
+
+    # -- derived quantities -------------------------------------------------------------
+    @property
+    def wavelengths_array(self) -> np.ndarray:
+        """Sample wavelengths [nm], shape (n_wavelengths,)."""
+        return np.asarray(self.wavelengths, dtype=float)
+
+    @property
+    def n_wavelengths(self) -> int:
+        """Number of spectral channels."""
+        return len(self.wavelengths)
+
+    @property
+    def thickness(self) -> float:
+        """Height of the atmosphere, ``top_radius − planet_radius`` [m]."""
+        return self.top_radius - self.planet_radius
+
+    def constituent(self, name: str) -> Constituent:
+        """The constituent called ``name`` (``KeyError`` listing the names if absent)."""
+        for c in self.constituents:
+            if c.name == name:
+                return c
+        raise KeyError(f"no constituent {name!r}; have {[c.name for c in self.constituents]}")
+
+    def without(self, *names: str) -> Atmosphere:
+        """A copy without the named constituents (used by plans that skip a term)."""
+        return Atmosphere(
+            planet_radius=self.planet_radius,
+            top_radius=self.top_radius,
+            wavelengths=self.wavelengths,
+            constituents=tuple(c for c in self.constituents if c.name not in names),
+            name=self.name,
+        )
+
+    def active_constituents(self) -> tuple[Constituent, ...]:
+        """Constituents that scatter or absorb at some wavelength (empty ones are skipped)."""
+        return tuple(c for c in self.constituents if not c.is_empty)
+
+    def scattering_at(self, altitude) -> np.ndarray:
+        """Total scattering coefficient [m⁻¹] at ``altitude`` [m], shape (..., n_wavelengths)."""
+        h = as_float_array(altitude, "altitude")[..., None]
+        out = np.zeros(h.shape[:-1] + (self.n_wavelengths,), dtype=np.result_type(h, float))
+        for c in self.active_constituents():
+            out += c.profile.density(h) * c.scattering_array
+        return out
+
+    def extinction_at(self, altitude) -> np.ndarray:
+        """Total extinction coefficient [m⁻¹] at ``altitude`` [m], shape (..., n_wavelengths)."""
+        h = as_float_array(altitude, "altitude")[..., None]
+        out = np.zeros(h.shape[:-1] + (self.n_wavelengths,), dtype=np.result_type(h, float))
+        for c in self.active_constituents():
+            out += c.profile.density(h) * c.extinction_array
+        return out
+
+    def vertical_optical_depth(self) -> np.ndarray:
+        """Optical depth [-] from the ground to the top along the zenith, per wavelength.
+
+        Exact for every profile type (see :func:`atmoscatter.optical_length`).
+        """
+        from .optical_length import optical_length
+
+        tau = np.zeros(self.n_wavelengths)
+        for c in self.active_constituents():
+            ol = optical_length(
+                c.profile, 0.0, 1.0, planet_radius=self.planet_radius, top_radius=self.top_radius
+            )
+            tau = tau + float(ol) * c.extinction_array
+        return tau

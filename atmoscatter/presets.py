@@ -1,0 +1,267 @@
+"""Ready-made atmospheres with cited constants.
+
+Public objects
+--------------
+- :func:`earth_atmosphere`: Earth after Bruneton (2017) (errata "reference constants").
+- :func:`earth_turbidity_atmosphere`: Earth whose haze is set by the turbidity
+  (Preetham 1999 definition; :func:`atmoscatter.mie_scattering`).
+- :func:`mars_atmosphere`: a Mars-like atmosphere (CO₂ Rayleigh + dust).
+- :func:`keller_bohn_atmosphere`: reproduces the parameters of seed 002 (labelled look).
+- :data:`PRESETS`: name → constructor registry (used by scenes and the CLI).
+
+References
+----------
+- Bruneton, E. (2017). Precomputed atmospheric scattering: a new implementation.
+  Planet radius 6360 km, top 6420 km, Rayleigh scale height 8 km, Mie scale height 1.2 km,
+  Mie single-scattering albedo 0.9, g = 0.8, ozone 300 DU in a 10–25–40 km tent.
+- NASA Mars Fact Sheet (Williams, D. R., NSSDCA, 2024): mean radius 3389.5 km, surface
+  pressure 6.36 mbar, scale height 11.1 km, surface temperature ≈ 210 K.
+- Sneep, M. & Ubachs, W. (2005). Direct measurement of the Rayleigh scattering cross section
+  in various gases. JQSRT 92, 293–310: CO₂ King factor ≈ 1.14 (depolarisation ≈ 0.08).
+- Old, J. G., Gentili, K. L. & Peck, E. R. (1971), JOSA 61, 89: CO₂ refractivity
+  (n − 1) ≈ 4.49e-4 at 0 °C, 1 atm (N = 2.687e25 m⁻³).
+- Lemmon, M. T. et al. (2004). Atmospheric imaging results from the Mars Exploration Rovers.
+  Science 306, 1753: visible dust optical depth typically 0.3–1 (we take 0.5).
+- Tomasko, M. G. et al. (1999), JGR 104, 8987, and Wolff, M. J. et al. (2009), JGR 114:
+  Martian dust asymmetry g ≈ 0.6–0.7 and single-scattering albedo ≈ 0.97 in the red,
+  lower in the blue.
+- Keller, P. & Bohn, C.-A. (seed 002): Earth radii, scale heights 8 km / 1.2 km,
+  Rayleigh ∝ λ⁻⁴, Mie ∝ λ⁻² (Table 1), three RGB samples.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+
+import numpy as np
+
+from ._validate import as_float_array, check_positive, check_range
+from .atmosphere import Atmosphere, Constituent, ExponentialProfile, TentProfile
+from .phase import HenyeyGreensteinPhase, RayleighPhase
+from .scattering import mie_scattering, ozone_absorption, rayleigh_scattering
+
+__all__ = [
+    "EARTH_PLANET_RADIUS",
+    "EARTH_TOP_RADIUS",
+    "earth_atmosphere",
+    "earth_turbidity_atmosphere",
+    "mars_atmosphere",
+    "keller_bohn_atmosphere",
+    "PRESETS",
+    "atmosphere_preset",
+]
+
+#: Earth ground radius [m] (Bruneton 2017).
+EARTH_PLANET_RADIUS: float = 6.36e6
+#: Earth top-of-atmosphere radius [m] (Bruneton 2017).
+EARTH_TOP_RADIUS: float = 6.42e6
+_RGB = (680.0, 550.0, 440.0)
+
+# Bruneton (2017) Mie: Ångström β = 5.328e-3 at α = 0 gives a wavelength-independent
+# extinction k·β/H = 5.328e-3/1200 m = 4.44e-6 m⁻¹; scattering = 0.9 × extinction.
+_BRUNETON_MIE_EXTINCTION = 5.328e-3 / 1200.0
+
+
+def _wl(wavelengths) -> np.ndarray:
+    wl = check_positive(as_float_array(wavelengths, "wavelengths"), "wavelengths", unit="nm")
+    return np.atleast_1d(wl).astype(float)
+
+
+def _rayleigh(wl) -> Constituent:
+    return Constituent(
+        name="rayleigh",
+        scattering=rayleigh_scattering(wl),
+        absorption=0.0,
+        profile=ExponentialProfile(8000.0),
+        phase=RayleighPhase(),
+    )
+
+
+def _ozone(wl) -> Constituent:
+    return Constituent(
+        name="ozone",
+        scattering=np.zeros_like(wl),
+        absorption=ozone_absorption(wl),
+        profile=TentProfile(25e3, 15e3),
+        phase=RayleighPhase(),
+    )
+
+
+def earth_atmosphere(wavelengths: Sequence[float] = _RGB, *, ozone: bool = True) -> Atmosphere:
+    """Earth's clear atmosphere with the reference constants of Bruneton (2017).
+
+    Rayleigh from :func:`rayleigh_scattering` (seed 000 constants; 5.8e-6, 1.35e-5,
+    3.3e-5 m⁻¹ at 680/550/440 nm — Bruneton uses 5.802, 13.558, 33.1 e-6), scale height
+    8 km; Mie extinction 4.44e-6 m⁻¹ (wavelength independent), albedo 0.9, HG g = 0.8,
+    scale height 1.2 km; optional ozone (300 DU, tent 10–25–40 km).
+
+    Parameters
+    ----------
+    wavelengths : sequence of float
+        Sample wavelengths [nm] (default 680, 550, 440: R, G, B).
+    ozone : bool
+        Include ozone absorption (needs wavelengths within 360–830 nm for meaningful
+        values; the table is held constant outside).
+    """
+    wl = _wl(wavelengths)
+    mie_ext = np.full_like(wl, _BRUNETON_MIE_EXTINCTION)
+    cons = [
+        _rayleigh(wl),
+        Constituent(
+            name="mie",
+            scattering=0.9 * mie_ext,
+            absorption=0.1 * mie_ext,
+            profile=ExponentialProfile(1200.0),
+            phase=HenyeyGreensteinPhase(0.8),
+        ),
+    ]
+    if ozone:
+        cons.append(_ozone(wl))
+    return Atmosphere(EARTH_PLANET_RADIUS, EARTH_TOP_RADIUS, tuple(wl), tuple(cons), name="earth")
+
+
+def earth_turbidity_atmosphere(
+    turbidity: float,
+    wavelengths: Sequence[float] = _RGB,
+    *,
+    ozone: bool = True,
+    single_scattering_albedo: float = 0.9,
+    g: float = 0.8,
+) -> Atmosphere:
+    """Earth atmosphere whose haze is fixed by the turbidity ``T`` (Preetham et al. 1999).
+
+    Haze sea-level scattering from :func:`atmoscatter.mie_scattering` (Junge shape, vertical
+    haze optical depth ``(T − 1)`` × molecular optical depth at 550 nm; errata 004.3),
+    scale height 1.2 km, albedo ``single_scattering_albedo``, HG asymmetry ``g``.  At
+    ``T = 1`` the haze constituent is omitted entirely (no haze work is done).
+
+    Parameters
+    ----------
+    turbidity : float
+        Turbidity [-], ≥ 1.
+    wavelengths : sequence of float
+        Sample wavelengths [nm].
+    ozone : bool
+        Include ozone absorption.
+    single_scattering_albedo : float
+        Haze albedo [-], in (0, 1].
+    g : float
+        Haze HG asymmetry [-], in (−1, 1).
+    """
+    T = float(check_range(turbidity, "turbidity", 1.0, np.inf))
+    w = float(check_range(single_scattering_albedo, "single_scattering_albedo", 0.0, 1.0, low_inclusive=False))
+    wl = _wl(wavelengths)
+    cons = [_rayleigh(wl)]
+    if T > 1.0:
+        sca = mie_scattering(wl, turbidity=T)
+        cons.append(
+            Constituent(
+                name="mie",
+                scattering=sca,
+                absorption=sca * (1.0 - w) / w,
+                profile=ExponentialProfile(1200.0),
+                phase=HenyeyGreensteinPhase(g),
+            )
+        )
+    if ozone:
+        cons.append(_ozone(wl))
+    return Atmosphere(EARTH_PLANET_RADIUS, EARTH_TOP_RADIUS, tuple(wl), tuple(cons), name=f"earth-T{T:g}")
+
+
+# Mars: CO₂ at the mean surface: N = p/(k T) = 636 Pa / (1.380649e-23 J/K · 210 K).
+_MARS_N = 636.0 / (1.380649e-23 * 210.0)
+_MARS_N_MINUS_1 = 4.49e-4 * _MARS_N / 2.687e25  # refractivity scales with density
+_MARS_DUST_TAU = 0.5
+_MARS_DUST_H = 11100.0
+# representative dust single-scattering albedo per wavelength (red high, blue lower)
+_MARS_DUST_ALBEDO = (np.array([440.0, 550.0, 680.0]), np.array([0.80, 0.94, 0.97]))
+
+
+def mars_atmosphere(wavelengths: Sequence[float] = _RGB, *, dust_optical_depth: float = _MARS_DUST_TAU) -> Atmosphere:
+    """A Mars-like atmosphere: thin CO₂ (Rayleigh) and suspended dust.
+
+    Planet radius 3389.5 km, top 3389.5 + 100 km (NASA fact sheet; scale height 11.1 km).
+    CO₂ Rayleigh scattering from :func:`rayleigh_scattering` with N = 2.19e23 m⁻³ (636 Pa,
+    210 K), (n − 1) scaled from 4.49e-4 at STP, depolarisation 0.08 (Sneep & Ubachs 2005).
+    Dust: wavelength-independent extinction giving ``dust_optical_depth`` (default 0.5,
+    Lemmon et al. 2004) with an 11.1 km scale height, HG g = 0.65 and a single-scattering
+    albedo of 0.97/0.94/0.80 at 680/550/440 nm, interpolated (representative of Tomasko et
+    al. 1999 and Wolff et al. 2009) — the blue absorption gives the butterscotch sky and
+    blue sunsets.  An approximate, Mars-*like* preset for rendering and validation, not a
+    retrieval of a particular day.
+    """
+    wl = _wl(wavelengths)
+    tau = float(check_range(dust_optical_depth, "dust_optical_depth", 0.0, np.inf))
+    R = 3.3895e6
+    ray = Constituent(
+        name="rayleigh",
+        scattering=rayleigh_scattering(
+            wl, refractive_index=1.0 + _MARS_N_MINUS_1, number_density=_MARS_N, depolarization=0.08
+        ),
+        absorption=0.0,
+        profile=ExponentialProfile(_MARS_DUST_H),
+        phase=RayleighPhase(),
+    )
+    cons = [ray]
+    if tau > 0:
+        ext = tau / _MARS_DUST_H
+        alb = np.interp(wl, *_MARS_DUST_ALBEDO)
+        cons.append(
+            Constituent(
+                name="dust",
+                scattering=ext * alb,
+                absorption=ext * (1.0 - alb),
+                profile=ExponentialProfile(_MARS_DUST_H),
+                phase=HenyeyGreensteinPhase(0.65),
+            )
+        )
+    return Atmosphere(R, R + 100e3, tuple(wl), tuple(cons), name="mars")
+
+
+def keller_bohn_atmosphere(
+    wavelengths: Sequence[float] = (650.0, 570.0, 475.0),
+    *,
+    turbidity: float = 1.0,
+    mie_coefficient_red: float = 2.0e-5,
+    g: float = 0.8,
+) -> Atmosphere:
+    """The parameters of seed 002 (Keller & Bohn), as a physical atmosphere.
+
+    Earth radii (6360/6420 km), exponential densities with 8 km (molecules) and 1.2 km
+    (aerosols) scale heights (seed 002 Eq. 6.1 and its text), and the *shapes* of its
+    Table 1: Rayleigh ``β_R(λ_red)·λ_red⁴/λ⁴`` and Mie ``β_M(λ_red)·λ_red²/λ²``.  Table 1
+    drops all constants (errata 002.2); we restore the physical magnitude of Rayleigh at
+    the red sample (:func:`rayleigh_scattering`) and take ``mie_coefficient_red``
+    (default 2e-5 m⁻¹, seed 000's light haze in the red) for Mie; the seed's
+    ``atmosphereTurbidity`` multiplies both coefficients.  Its phase functions (Rayleigh
+    ``1 + 0.5cos²θ``, HG without 1/4π) are artistic normalisations: here the true
+    normalised Rayleigh and HG phases are used.  This is a labelled interpretation that
+    reproduces the seed's look, not a measured atmosphere.  The seed's wavelengths are not
+    given; the default RGB samples are seed 000's 650/570/475 nm.
+    """
+    wl = _wl(wavelengths)
+    k = float(check_positive(turbidity, "turbidity"))
+    lam_red = float(np.max(wl))
+    ray = rayleigh_scattering(lam_red) * (lam_red / wl) ** 4 * k
+    mie = float(check_positive(mie_coefficient_red, "mie_coefficient_red", allow_zero=True)) * (lam_red / wl) ** 2 * k
+    cons = (
+        Constituent("rayleigh", ray, 0.0, ExponentialProfile(8000.0), RayleighPhase()),
+        Constituent("mie", mie, 0.0, ExponentialProfile(1200.0), HenyeyGreensteinPhase(g)),
+    )
+    return Atmosphere(EARTH_PLANET_RADIUS, EARTH_TOP_RADIUS, tuple(wl), cons, name="keller_bohn")
+
+
+#: Registry of preset names → constructors (``atmosphere_preset(name, **kwargs)``).
+PRESETS: dict[str, Callable[..., Atmosphere]] = {
+    "earth": earth_atmosphere,
+    "earth_turbidity": earth_turbidity_atmosphere,
+    "mars": mars_atmosphere,
+    "keller_bohn": keller_bohn_atmosphere,
+}
+
+
+def atmosphere_preset(name: str, **kwargs) -> Atmosphere:
+    """Build the preset ``name`` (one of :data:`PRESETS`), passing ``kwargs`` on."""
+    if name not in PRESETS:
+        raise ValueError(f"atmosphere preset {name!r} is not valid; choose one of {sorted(PRESETS)}")
+    return PRESETS[name](**kwargs)
