@@ -12,22 +12,24 @@ __version__ = "0.1.0"
 # --- re-exports: one line per module (keep sorted within groups) -------------
 # foundation
 from .atmosphere import *  # noqa: F403
+from .batch import *  # noqa: F403
 from .colour import *  # noqa: F403
+from .directions import *  # noqa: F403
+from .exr import *  # noqa: F403
 from .geometry import *  # noqa: F403
+from .models import *  # noqa: F403
 from .optical_length import *  # noqa: F403
 from .phase import *  # noqa: F403
 from .presets import *  # noqa: F403
+from .preview import *  # noqa: F403
+from .render import *  # noqa: F403
 from .scattering import *  # noqa: F403
-from .solar import *  # noqa: F403
-from .standard_atmosphere import *  # noqa: F403
+
 # sun
 # analytic skies
 # numerical scattering
 # scenes, rendering, files, CLI
 from .scene import *  # noqa: F403
-from .directions import *  # noqa: F403
-from .models import *  # noqa: F403
-from .render import *  # noqa: F403
-from .exr import *  # noqa: F403
-from .preview import *  # noqa: F403
+from .solar import *  # noqa: F403
+from .standard_atmosphere import *  # noqa: F403
 # oracle toolkit

@@ -47,7 +47,12 @@ __all__ = [
     "local_to_exr",
     "exr_to_local",
     "mirror_pairs",
+    "ArrayDirections",
+    "AIR_OPTICAL_LENGTH_ZENITH",
 ]
+
+#: Air optical length at the zenith [m] (seed 000: "about 8.4 kilometers").
+AIR_OPTICAL_LENGTH_ZENITH = 8400.0
 
 
 def local_to_exr(d):
@@ -345,8 +350,9 @@ class DomeDirections(DirectionSet):
     spherical Delaunay triangulation), computed with :class:`scipy.spatial.ConvexHull`.
     :attr:`radii` are the vertex distances of seed 000's sky mesh: the air
     optical length [m] in each direction, ``8.4 km × m(θ)`` with the relative
-    optical length of Kasten (1966) in the Iqbal form (seed 000 Eq. 5), capped
-    at its value 90° (≈ 38 air masses).
+    optical length of Kasten (1966) in the Iqbal form (seed 000 Eq. 5,
+    :func:`atmoscatter.relative_optical_length`); below the horizon (sphere
+    mode) the horizon value is used.
     """
 
     kind = "dome"
@@ -411,10 +417,10 @@ class DomeDirections(DirectionSet):
     @property
     def radii(self):
         """Vertex distance [m]: air optical length in the vertex direction (seed 000)."""
-        zen = np.degrees(np.arccos(np.clip(self.vertices[:, 2], 0.0, 1.0)))
-        # Kasten (1966) relative optical length in the Iqbal form (seed 000 Eq. 5)
-        m = 1.0 / (np.cos(np.radians(zen)) + 0.15 * (93.885 - zen) ** -1.253)
-        return 8400.0 * m
+        from .optical_length import relative_optical_length  # noqa: PLC0415
+
+        zen = np.arccos(np.clip(self.vertices[:, 2], 0.0, 1.0))
+        return AIR_OPTICAL_LENGTH_ZENITH * relative_optical_length(zen, method="iqbal")
 
     def directions(self, start, stop):
         return self.vertices[start:stop].copy(), np.ones(stop - start, dtype=bool)
@@ -432,6 +438,31 @@ class DomeDirections(DirectionSet):
         for k in range(3):
             np.add.at(omega, f[:, k], tri / 3.0)
         return omega[start:stop]
+
+
+class ArrayDirections(DirectionSet):
+    """Arbitrary unit directions (..., 3) given by the caller (e.g. a mesh's vertices)."""
+
+    kind = "directions"
+
+    def __init__(self, directions):
+        d = np.asarray(directions, dtype=float)
+        if d.ndim < 1 or d.shape[-1] != 3:
+            raise ValueError(f"directions must have shape (..., 3), got {d.shape}")
+        if not np.all(np.isfinite(d)):
+            raise ValueError("directions must be finite")
+        norm = np.linalg.norm(d, axis=-1)
+        if np.any(np.abs(norm - 1.0) > 1e-6):
+            raise ValueError("directions must be unit vectors (|d| = 1 within 1e-6)")
+        self.shape = d.shape[:-1]
+        self._flat = d.reshape(-1, 3)
+        self.size = self._flat.shape[0]
+
+    def directions(self, start, stop):
+        return self._flat[start:stop], np.ones(stop - start, dtype=bool)
+
+    def solid_angles(self, start, stop):
+        return np.full(stop - start, 4.0 * np.pi / max(self.size, 1))
 
 
 def _dedupe_points(p, tol=1e-9):

@@ -115,7 +115,9 @@ def write_exr(path, image, *, precision: str | None = None, compression: str = "
         raise ValueError(f"compression={compression!r} is not valid; choose one of {sorted(comp)}")
     dtype = np.float16 if prec == "half" else np.float32
 
-    dome = image.projection == "dome"
+    dome = len(image.shape) == 1  # a mesh / direction list: one row, one pixel each
+    if len(image.shape) > 2:
+        raise ValueError(f"cannot write layers of shape {image.shape} as an image")
 
     def as_image(a):
         a = np.asarray(a)
@@ -146,7 +148,7 @@ def write_exr(path, image, *, precision: str | None = None, compression: str = "
         for i, wl in enumerate(image.wavelengths):
             channels[spectral_channel_name(wl)] = conv(image.spectral[..., i])
     if dome:
-        d = image.directions
+        d = image.directions.reshape(-1, 3)
         for i, c in enumerate("XYZ"):
             channels[f"dir.{c}"] = as_image(d[:, i].astype(np.float32))
 

@@ -36,9 +36,10 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import __version__
-from .directions import DirectionSet, direction_set, mirror_pairs
+from .directions import ArrayDirections, DirectionSet, direction_set, mirror_pairs
 from .models import get_model
-from .scene import Plan, Scene, plan as make_plan
+from .scene import Plan, Scene
+from .scene import plan as make_plan
 
 __all__ = ["SkyImage", "render", "render_batches", "sun_disc_radiance", "LIMB_DARKENING_U"]
 
@@ -337,7 +338,7 @@ def _metadata(scene, plan, dset, adapter):
     return md
 
 
-def render(scene: Scene | None = None, *, batch_size: int | None = None,
+def render(scene: Scene | None = None, *, directions=None, batch_size: int | None = None,
            workers: int | None = None) -> SkyImage:
     """Render ``scene`` (default: :class:`Scene` ()) to a :class:`SkyImage`.
 
@@ -345,6 +346,10 @@ def render(scene: Scene | None = None, *, batch_size: int | None = None,
     ----------
     scene : Scene, optional
         What to render; ``None`` renders the documented default scene.
+    directions : array_like (..., 3), optional
+        Evaluate these unit view directions (local frame) instead of the
+        scene's projection (e.g. the vertices of your own sky mesh); the
+        layers then have shape ``directions.shape[:-1]``.
     batch_size : int, optional
         Directions per model call (default :data:`atmoscatter.scene.DEFAULT_BATCH_SIZE`).
     workers : int, optional
@@ -369,7 +374,7 @@ def render(scene: Scene | None = None, *, batch_size: int | None = None,
     if scene is None:
         scene = Scene()
     p = make_plan(scene, batch_size=batch_size)
-    dset = direction_set(scene, p)
+    dset = direction_set(scene, p) if directions is None else ArrayDirections(directions)
     ctx = _Context(scene, p, dset)
     n = dset.size
     vals = np.zeros((n, ctx.nval), dtype=np.float32)

@@ -194,8 +194,9 @@ class Scene:
             if isinstance(v, str) and v.strip() == "":
                 continue
             values[k] = v
-        start = base if base is not None else cls()
-        return dataclasses.replace(start, **values)
+        if base is None:
+            return cls(**values)
+        return dataclasses.replace(base, **values)
 
     def replace_from_strings(self, assignments) -> Scene:
         """Apply ``key=value`` strings (the CLI's ``--set``) and return a new scene."""
@@ -413,20 +414,19 @@ def parse_time(value: str) -> _dt.datetime:
 
 
 def earth_sun_distance(time) -> float:
-    """Earth–Sun distance [AU] for a date.
+    """Earth–Sun distance [AU] at ``time`` (ISO 8601 string or datetime).
 
-    Uses the eccentricity correction factor of Spencer (1971), as given by
-    Iqbal (1983, Eq. 1.2.1), ``E0 = (r0/r)² = 1.000110 + 0.034221 cos Γ +
-    0.001280 sin Γ + 0.000719 cos 2Γ + 0.000077 sin 2Γ`` with the day angle
-    ``Γ = 2π(d − 1)/365`` (d = day of the year), accurate to about 1e-4 in
-    ``E0``.  Returns ``r/r0 = E0^{-1/2}``.
+    Low-precision formula of the Astronomical Almanac (USNO "approximate solar
+    coordinates"): ``R = 1.00014 − 0.01671 cos g − 0.00014 cos 2g`` with the
+    mean anomaly ``g = 357.529° + 0.98560028° n`` and ``n`` the days since
+    J2000.0 (2000-01-01 12:00 TT, taken as UTC here); accurate to about 1e-5 AU
+    for 1950–2050.
     """
     t = parse_time(time)
-    day = t.timetuple().tm_yday
-    g = 2.0 * math.pi * (day - 1) / 365.0
-    e0 = (1.000110 + 0.034221 * math.cos(g) + 0.001280 * math.sin(g)
-          + 0.000719 * math.cos(2 * g) + 0.000077 * math.sin(2 * g))
-    return 1.0 / math.sqrt(e0)
+    j2000 = _dt.datetime(2000, 1, 1, 12, tzinfo=_dt.timezone.utc)
+    n = (t - j2000).total_seconds() / 86400.0
+    g = math.radians((357.529 + 0.98560028 * n) % 360.0)
+    return 1.00014 - 0.01671 * math.cos(g) - 0.00014 * math.cos(2.0 * g)
 
 
 # ----------------------------------------------------------------------------
@@ -576,7 +576,7 @@ class Plan:
             f"chromaticity     : {'yes' if self.chromaticity else 'skipped'}",
             f"spectral integr. : {self.spectral_integration}"
             + (f" over {len(self.wavelengths)} wavelengths" if self.wavelengths else ""),
-            f"below horizon    : "
+            "below horizon    : "
             + (f"not evaluated (z < {self.horizon_z:g}), filled with {self.ground_value}"
                if self.skip_below_horizon else "evaluated"),
             f"mirror symmetry  : {'used' if self.symmetry else 'not used'}",
