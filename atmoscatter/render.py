@@ -111,9 +111,11 @@ class SkyImage:
             return self.luminance_only
         if self.xyz is not None:
             return self.xyz[..., 1]
-        from .colour import linear_rgb_to_XYZ  # noqa: PLC0415
+        from .colour import XYZ_to_linear_rgb  # noqa: PLC0415
 
-        return linear_rgb_to_XYZ(self.rgb, self.scene.colourspace)[..., 1]
+        # exact inverse of the forward matrix used by render()
+        m = np.linalg.inv(XYZ_to_linear_rgb(np.eye(3), self.scene.colourspace))
+        return (self.rgb.astype(np.float64) @ m[:, 1]).astype(np.float32)
 
     def to_numpy(self) -> dict:
         """The layers as a dict of numpy arrays (``rgb``, ``xyz``, ``luminance``, …)."""
