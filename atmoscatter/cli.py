@@ -87,12 +87,9 @@ def _parser() -> argparse.ArgumentParser:
 
 
 def _scene_from_args(args):
-    from .scene import Scene, load_scene  # noqa: PLC0415
+    from .scene import load_scene  # noqa: PLC0415
 
-    scene = load_scene(args.scene) if args.scene else Scene()
-    if args.set:
-        scene = scene.replace_from_strings(args.set)
-    return scene
+    return load_scene(args.scene, overrides=args.set)
 
 
 def _cmd_render(args, out) -> int:

@@ -200,13 +200,7 @@ class Scene:
 
     def replace_from_strings(self, assignments) -> Scene:
         """Apply ``key=value`` strings (the CLI's ``--set``) and return a new scene."""
-        data = {}
-        for item in assignments:
-            if "=" not in item:
-                raise ValueError(f"--set expects key=value, got {item!r}")
-            key, value = item.split("=", 1)
-            data[key.strip()] = value.strip()
-        return Scene.from_dict(data, base=self)
+        return Scene.from_dict(_parse_assignments(assignments), base=self)
 
     def to_dict(self) -> dict:
         """The scene as a plain dictionary (``None`` kept)."""
@@ -452,13 +446,17 @@ def _load_json(path):
             raise ValueError(f"{path}: not valid JSON: {exc}") from None
 
 
-def load_scene(path: str | os.PathLike) -> Scene:
-    """Load a scene from a TOML (``.toml``) or JSON (``.json``) file.
+def _parse_assignments(assignments) -> dict:
+    data = {}
+    for item in assignments or ():
+        if "=" not in item:
+            raise ValueError(f"--set expects key=value, got {item!r}")
+        key, value = item.split("=", 1)
+        data[key.strip()] = value.strip()
+    return data
 
-    The file holds the scene fields at top level or inside a ``[scene]`` table
-    (TOML) / ``"scene"`` object (JSON).  Unknown fields and invalid values raise
-    :class:`ValueError` naming the file and the field.
-    """
+
+def _read_scene_file(path) -> dict:
     path = os.fspath(path)
     if not os.path.exists(path):
         raise ValueError(f"scene file {path!r} does not exist")
@@ -473,10 +471,30 @@ def load_scene(path: str | os.PathLike) -> Scene:
         raise ValueError(f"{path}: a scene file must hold a table/object of scene fields")
     if "scene" in data and isinstance(data["scene"], dict):
         data = data["scene"]
+    return dict(data)
+
+
+def load_scene(path: str | os.PathLike | None = None, *, overrides=None) -> Scene:
+    """Load a scene from a TOML (``.toml``) or JSON (``.json``) file.
+
+    The file holds the scene fields at top level or inside a ``[scene]`` table
+    (TOML) / ``"scene"`` object (JSON).  ``overrides`` — a mapping or
+    ``key=value`` strings (the CLI's ``--set``) — are applied on top; with
+    ``path=None`` they apply to the defaults.  Unknown fields and invalid
+    values raise :class:`ValueError` naming the file and the field.
+    """
+    data = _read_scene_file(path) if path is not None else {}
+    if overrides:
+        if isinstance(overrides, dict):
+            data.update(overrides)
+        else:
+            data.update(_parse_assignments(overrides))
     try:
         return Scene.from_dict(data)
     except ValueError as exc:
-        raise ValueError(f"{path}: {exc}") from None
+        if path is None:
+            raise
+        raise ValueError(f"{os.fspath(path)}: {exc}") from None
 
 
 # ----------------------------------------------------------------------------

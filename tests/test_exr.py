@@ -10,7 +10,13 @@ import OpenEXR
 import pytest
 
 import atmoscatter as ac
-from atmoscatter.exr import atomic_write, is_complete_exr, read_exr, spectral_channel_name, write_exr
+from atmoscatter.exr import (
+    atomic_write,
+    is_complete_exr,
+    read_exr,
+    spectral_channel_name,
+    write_exr,
+)
 from atmoscatter.models import ModelAdapter, physical_adapter, register_model, unregister_model
 from atmoscatter.preview import preview_array, srgb_encode, tone_map, write_png, write_preview
 from atmoscatter.scene import Scene
