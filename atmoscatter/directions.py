@@ -346,6 +346,8 @@ class DomeDirections(DirectionSet):
         Cover the whole sphere (elevated observer) rather than the upper
         hemisphere.
 
+    Notes
+    -----
     The triangles (:attr:`faces`) are the convex hull of the vertices (a
     spherical Delaunay triangulation), computed with :class:`scipy.spatial.ConvexHull`.
     :attr:`radii` are the vertex distances of seed 000's sky mesh: the air
