@@ -10,6 +10,7 @@ from __future__ import annotations
 
 __version__ = "0.1.0"
 
+<<<<<<< HEAD
 # --- re-exports: one line per module, grouped by topic --------------------------
 # foundation
 from .atmosphere import *  # noqa: F403
@@ -39,3 +40,5 @@ from .exr import *  # noqa: F403
 from .preview import *  # noqa: F403
 from .batch import *  # noqa: F403
 # oracle toolkit
+from .integrals import *  # noqa: F403
+from .compare import *  # noqa: F403
