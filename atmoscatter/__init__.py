@@ -10,7 +10,6 @@ from __future__ import annotations
 
 __version__ = "0.1.0"
 
-<<<<<<< HEAD
 # --- re-exports: one line per module, grouped by topic --------------------------
 # foundation
 from .atmosphere import *  # noqa: F403
