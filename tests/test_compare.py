@@ -292,6 +292,11 @@ class TestReadSkyMap:
             read_sky_map(p3)
         with pytest.raises(ValueError, match="twice as wide"):
             read_sky_map(p3, layout="latlong")
+        # the envmap attribute wins over the aspect ratio
+        p4 = tmp_path / "cube_attr.exr"
+        _write_exr(p4, {"Y": np.ones((8, 16))}, "cube")
+        with pytest.raises(ValueError, match="six square faces"):
+            read_sky_map(p4)
         with pytest.raises(ValueError, match="rotate_deg"):
             read_sky_map(p, rotate_deg=10.0)
         with pytest.raises(ValueError, match="flip"):
