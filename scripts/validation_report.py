@@ -400,18 +400,69 @@ def convergence_section(docs_dir):
     return lines
 
 
-def speed_section(timings):
-    lines = ["## Speed", "",
-             f"Render time per evaluated sky direction measured while generating this report "
-             f"(whole `atmoscatter.render` call, small maps, so fixed overheads dominate for the "
-             f"fast models; machine: {platform.machine()}, {os.cpu_count()} cores, "
-             f"Python {platform.python_version()}, shared and noisy).  The pytest-benchmark "
-             "suites under `benchmarks/` (`pytest benchmarks --benchmark-only`) give the "
-             "per-vertex throughput at 10⁴–10⁶ directions.", "",
-             "| model | renders | median time per render [s] | median µs per sky direction |",
-             "|---|---|---|---|"]
+def run_benchmarks(out_dir):
+    """Run benchmarks/bench_*.py with pytest-benchmark; keep a small CSV of the results."""
+    import glob
+    import json
+    import subprocess
+    import tempfile
+
+    root = os.path.join(os.path.dirname(__file__), os.pardir)
+    files = sorted(glob.glob(os.path.join(root, "benchmarks", "bench_*.py")))
+    if not files:
+        return None
+    with tempfile.TemporaryDirectory() as tmp:
+        js = os.path.join(tmp, "bench.json")
+        subprocess.run([sys.executable, "-m", "pytest", *files, "--benchmark-only",
+                        f"--benchmark-json={js}", "-q", "-p", "no:cacheprovider"],
+                       cwd=root, check=False)
+        if not os.path.exists(js):
+            return None
+        with open(js, encoding="utf-8") as fh:
+            data = json.load(fh)
+    cpu = data.get("machine_info", {}).get("cpu", {}).get("brand_raw", platform.processor())
+    path = os.path.join(out_dir, "benchmarks.csv")
+    os.makedirs(out_dir, exist_ok=True)
+    with open(path, "w", newline="", encoding="utf-8") as fh:
+        w = csv.writer(fh)
+        w.writerow(["benchmark", "median_s", "min_s", "rounds", "machine", "date"])
+        for b in data.get("benchmarks", []):
+            st = b["stats"]
+            w.writerow([b["fullname"].replace("benchmarks/", ""), f"{st['median']:.6g}",
+                        f"{st['min']:.6g}", st["rounds"],
+                        f"{cpu}, {os.cpu_count()} cores", _dt.date.today().isoformat()])
+    return path
+
+
+def _benchmark_table(out_dir):
+    path = os.path.join(out_dir, "benchmarks.csv")
+    if not os.path.exists(path):
+        return ["The pytest-benchmark suites were not run for this report (run "
+                "`python scripts/validation_report.py --benchmarks` to include them, or "
+                "`pytest benchmarks --benchmark-only` directly).", ""]
+    with open(path, newline="", encoding="utf-8") as fh:
+        rows = list(csv.DictReader(fh))
+    if not rows:
+        return ["The benchmark run produced no results.", ""]
+    out = [f"pytest-benchmark results (`benchmarks/bench_*.py`, {rows[0]['machine']}, "
+           f"{rows[0]['date']}, shared and noisy; raw: "
+           "[validation/benchmarks.csv](validation/benchmarks.csv)):", "",
+           "| benchmark | median [s] | min [s] | rounds |", "|---|---|---|---|"]
+    out += [f"| `{r['benchmark']}` | {float(r['median_s']):.4g} | {float(r['min_s']):.4g} | "
+            f"{r['rounds']} |" for r in rows]
+    return out + [""]
+
+
+def speed_section(timings, out_dir):
+    lines = ["## Speed", ""] + _benchmark_table(out_dir)
+    lines += [f"Render time per evaluated sky direction measured while generating this report "
+              f"(whole `atmoscatter.render` call on small maps, so fixed overheads dominate "
+              f"for the fast models; {platform.machine()}, {os.cpu_count()} cores, Python "
+              f"{platform.python_version()}, shared and noisy):", ""]
     if not timings:
-        return lines[:2] + ["No render was timed (no model compared).", ""]
+        return lines + ["No render was timed (no model compared).", ""]
+    lines += ["| model | renders | median time per render [s] | median µs per sky direction |",
+              "|---|---|---|---|"]
     for m, tt in sorted(timings.items()):
         secs = np.array([a for a, _ in tt])
         per = np.array([a / max(n, 1) * 1e6 for a, n in tt])
@@ -424,18 +475,22 @@ def main(argv=None) -> int:
     ap.add_argument("--out", default=os.path.join(os.path.dirname(__file__), os.pardir, "docs"))
     ap.add_argument("--width", type=int, default=64, help="lat-long width (height = width/2)")
     ap.add_argument("--times", type=int, default=9, help="instants from sunrise to sunset")
+    ap.add_argument("--benchmarks", action="store_true",
+                    help="also run benchmarks/bench_*.py (minutes) and tabulate the results")
     args = ap.parse_args(argv)
     if args.width < 4 or args.width % 2 or args.times < 2:
         ap.error("--width must be an even number >= 4 and --times >= 2")
     out_dir = os.path.join(args.out, "validation")
     t0 = time.perf_counter()
+    if args.benchmarks:
+        run_benchmarks(out_dir)
     model_lines, _, timings = model_section(out_dir, args.width, args.times)
     lines = ["# Validation report", "",
              "Generated by `scripts/validation_report.py` with the package itself "
              f"(atmoscatter {ac.__version__}, {_dt.date.today().isoformat()}); re-run it to "
              "regenerate.  Available sky models: "
              f"{', '.join(f'`{m}`' for m in _models()) or 'none'}.", ""]
-    lines += model_lines + sun_section() + convergence_section(args.out) + speed_section(timings)
+    lines += model_lines + sun_section() + convergence_section(args.out) + speed_section(timings, out_dir)
     lines += ["## Gallery", "", "Images rendered by the package: see [gallery](gallery.md).", "",
               f"*Report generated in {time.perf_counter() - t0:.0f} s.*"]
     os.makedirs(args.out, exist_ok=True)
