@@ -39,7 +39,6 @@ import numpy as np  # noqa: E402
 
 import atmoscatter as ac  # noqa: E402
 from atmoscatter.compare import _diverging, _sequential, _write_png  # noqa: E402
-from atmoscatter.integrals import latlong_quadrature  # noqa: E402
 
 SITE = {"latitude": 39.742, "longitude": -105.179}  # NREL, Golden, Colorado
 SITE_NAME = "NREL, Golden, Colorado (39.742° N, 105.179° W)"
@@ -112,13 +111,15 @@ def model_section(out_dir, width, n_times):
                 ""], [], {}
     tested = [m for m in models if m in CLEAR_SKY_MODELS and m != ref_model]
     times, how = _day_times(n_times)
-    d, om = latlong_quadrature(width, width // 2)
     rows, timings = [], {}
     maps = {}
     for T in TURBIDITIES:
         for t in times:
             ref, dt = _render(ref_model, t, T, width)
             timings.setdefault(ref_model, []).append((dt, int((ref.alpha > 0).sum())))
+            dset = ref.directions_set  # the renderer's own pixel directions and solid angles
+            d = dset.all_directions()
+            om = np.asarray(dset.solid_angles(0, dset.size)).reshape(d.shape[:-1])
             sun = ref.plan.sun_direction
             el = float(np.degrees(np.arcsin(sun[2])))
             mask = (d[..., 2] > 0) & (d @ sun < np.cos(np.radians(SUN_EXCLUSION_DEG)))
