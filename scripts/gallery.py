@@ -82,11 +82,11 @@ def gallery_items(models):
                       sun_azimuth_deg=270.0, projection="latlong", width=256, height=128),
                   None if phys else "needs a physical model"))
     # planet from space
-    items.append(("The planet seen from space", "space_20000km",
-                  "observer 20 000 km above the ground, the whole sphere of directions "
-                  "(the planet fills the lower half)",
+    items.append(("The planet seen from space", "space_1000km",
+                  "observer 1000 km above the ground, the whole sphere of directions "
+                  "(the planet, 60° in angular radius, fills the bottom of the map)",
                   None if phys is None else dict(
-                      model=phys, altitude=2.0e7, sun_elevation_deg=30.0,
+                      model=phys, altitude=1.0e6, sun_elevation_deg=30.0,
                       sun_azimuth_deg=180.0, projection="latlong", width=256, height=128),
                   None if phys else "needs a physical model"))
     return items
@@ -105,8 +105,10 @@ def main(argv=None) -> int:
         "# Gallery",
         "",
         "Rendered by the package itself with `scripts/gallery.py` (re-run it to regenerate; "
-        "every image is `atmoscatter.render(Scene(...))` written with "
-        "`atmoscatter.preview.write_preview`, automatic exposure per image).",
+        "every image is `atmoscatter.render(Scene(...))` tone-mapped by "
+        "`atmoscatter.preview.preview_array` with automatic exposure per image; lat-long maps "
+        "of a ground observer show their upper (sky) half, zenith on top, north in the "
+        "centre; fisheyes look up with north up and east left).",
         "",
         f"Models available when this page was generated: {', '.join(models) or 'none'}.",
         "",
@@ -136,13 +138,20 @@ def main(argv=None) -> int:
             print(f"{stem}: FAILED {exc}", file=sys.stderr)
             continue
         dt = time.perf_counter() - t0
-        from atmoscatter.preview import write_preview
+        from atmoscatter.preview import preview_array, write_png
 
-        write_preview(img, os.path.join(out_dir, f"{stem}.png"))
+        rgb, lum = img.rgb, img.luminance
+        if fields["projection"] == "latlong" and fields.get("altitude", 0.0) < 1e4:
+            # a ground observer's lower half is the (uniform) ground fill: keep the sky
+            h = rgb.shape[0] // 2
+            rgb, lum = rgb[:h], lum[:h]
+        write_png(os.path.join(out_dir, f"{stem}.png"), preview_array(rgb, luminance=lum))
         desc = ", ".join(f"{k}={v}" for k, v in fields.items()
                          if k not in ("width", "height", "projection"))
+        shown = "upper half of a " if (fields["projection"] == "latlong"
+                                       and fields.get("altitude", 0.0) < 1e4) else ""
         lines += [f"![{caption}](gallery/{stem}.png)", "",
-                  f"*{caption}* — {fields['projection']} {fields['width']}×{fields['height']}, "
+                  f"*{caption}* — {shown}{fields['projection']} {fields['width']}×{fields['height']}, "
                   f"{desc}; {dt:.1f} s.", ""]
         print(f"{stem}: {dt:.1f} s")
     with open(os.path.join(args.out, "gallery.md"), "w", encoding="utf-8") as fh:
