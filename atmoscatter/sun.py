@@ -255,8 +255,10 @@ def default_delta_t(time):
     -----
     The polynomials fit observed ΔT to about a second over 1900–2005.  Their 2005–2050 piece is
     an extrapolation published in 2006 that overestimates the observed ΔT (IERS) by about 2 s in
-    2015 and 5 s in 2025; a 1 s error in ΔT moves the Sun by up to 0.004° (15″) in hour angle.
-    Pass ``delta_t=`` explicitly (e.g. from IERS Bulletin A) for the best absolute accuracy.
+    2015 and 5 s in 2025.  ΔT only shifts the ephemeris time (Earth's rotation uses UT), so a
+    ΔT error of 1 s moves the Sun by about 1.2e-5° (its orbital motion in 1 s; measured: 5 s →
+    5.9e-5°).  Pass ``delta_t=`` explicitly (e.g. from IERS Bulletin A) for the best absolute
+    accuracy.
 
     Examples
     --------
@@ -686,8 +688,8 @@ def sun_position(
     are computed once per time, shared across sites, and — for batches with many times per
     2-day interval — evaluated at nodes every 2 days and interpolated with a 4-point cubic;
     the added error is < 2e-5° (measured ~4e-6°, see ``tests/test_sun.py``).  Validity: the SPA
-    claims ±0.0003° for years −2000…6000 given the true ΔT; the default ΔT polynomial limits
-    the absolute accuracy (see :func:`default_delta_t`).
+    claims ±0.0003° for years −2000…6000 given the true ΔT; the default ΔT polynomial's error
+    (≤ 5 s for 1900–2025) adds ≤ 6e-5° (see :func:`default_delta_t`).
 
     *iqbal*: seed 003 Sec. 3 with errata 003.1 (solar time with east-positive longitude):
     declination ``δ = 0.4093 sin(2π(J − 81)/368)``, solar time
