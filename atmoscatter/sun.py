@@ -838,6 +838,38 @@ class SunriseSunset:
     day_length: np.ndarray
 
 
+def _as_dates(dates, name: str) -> np.ndarray:
+    """Calendar dates as ``datetime64[D]``: the *local* date of timezone-aware values.
+
+    A date names a day, not an instant, so naive ``datetime``/pandas values are accepted here,
+    and an aware value (e.g. local midnight) keeps its own calendar date instead of the UTC one.
+    """
+    if _is_pandas(dates) and hasattr(dates, "__len__"):
+        import pandas as pd
+
+        try:
+            idx = pd.DatetimeIndex(dates)
+        except (TypeError, ValueError) as exc:
+            raise TypeError(f"{name} must hold dates, got {type(dates).__name__}") from exc
+        if idx.tz is not None:
+            idx = idx.tz_localize(None)
+        return idx.values.astype("datetime64[D]").reshape(np.shape(dates))
+
+    def one(v):
+        if _is_pandas(v) and str(v) != "NaT":
+            v = v.to_pydatetime()
+        if isinstance(v, _dt.datetime):
+            return np.datetime64(v.date(), "D")
+        return _scalar_to_datetime64(v, name).astype("datetime64[D]")
+
+    arr = dates if isinstance(dates, np.ndarray) else np.asarray(dates)
+    if arr.dtype.kind == "O":
+        if arr.ndim == 0:
+            return np.asarray(one(arr.item()))
+        return np.array([one(v) for v in arr.ravel()], dtype="datetime64[D]").reshape(arr.shape)
+    return _as_datetime64(arr, name).astype("datetime64[D]")
+
+
 def _hour_angle(d, lon_rad, q):
     """Geocentric local hour angle wrapped to [−π, π)."""
     h = _TWO_PI * (d - np.floor(d)) + lon_rad - q
@@ -857,10 +889,12 @@ def sunrise_sunset(dates, latitude, longitude, *, horizon=HORIZON_APPARENT, delt
     Parameters
     ----------
     dates : datetime64[D]-like or array
-        Local calendar dates.  The events returned are those of the solar day centred on the
-        local *mean* noon of that date, i.e. on ``date 12:00 UTC − longitude/15 h``; for civil
-        time zones within an hour or so of mean solar time this is the civil date.  Values with a
-        time of day are truncated to the date.
+        Local calendar dates (``datetime64``, ``datetime.date``, ISO strings, pandas).  The
+        events returned are those of the solar day centred on the local *mean* noon of that
+        date, i.e. on ``date 12:00 UTC − longitude/15 h``; for civil time zones within an hour
+        or so of mean solar time this is the civil date.  Values with a time of day are
+        truncated to their date — for timezone-aware ``datetime``/pandas values, their own
+        (local) calendar date; naive values are accepted here since a date is not an instant.
     latitude : array_like
         Geodetic latitude [deg], [−90, 90].
     longitude : array_like
@@ -895,10 +929,9 @@ def sunrise_sunset(dates, latitude, longitude, *, horizon=HORIZON_APPARENT, delt
     >>> str(r.sunrise + np.timedelta64(8, "h"))[:16], str(r.sunset + np.timedelta64(8, "h"))[:16]
     ('2011-06-15T07:00', '2011-06-15T19:12')
     """
-    t_us = _as_datetime64(dates, "dates")
-    if t_us.ndim == 0 and np.isnat(t_us):
+    days = _as_dates(dates, "dates").astype("datetime64[us]")
+    if days.ndim == 0 and np.isnat(days):
         raise ValueError("dates must not be NaT")
-    days = t_us.astype("datetime64[D]").astype("datetime64[us]")
     d_date = _days_since_j2000(days, "dates")  # 00:00 UTC of the date
     lat = _checked(latitude, "latitude", -90.0, 90.0, "deg")
     lon = _checked(longitude, "longitude", -360.0, 360.0, "deg")

@@ -463,6 +463,26 @@ def test_polar_day_and_night():
         assert r.day_length[1 - summer] == np.timedelta64(0, "h")
 
 
+def test_sunrise_sunset_date_inputs_agree():
+    """A date names a local day: aware local midnight keeps its own date (not the UTC one)."""
+    ref = S.sunrise_sunset(np.datetime64("2011-01-01"), 1.28, 103.45)
+    tz8 = dt.timezone(dt.timedelta(hours=8))
+    for d in (
+        dt.date(2011, 1, 1),
+        "2011-01-01",
+        dt.datetime(2011, 1, 1, 0, 0, tzinfo=tz8),
+        dt.datetime(2011, 1, 1, 23, 0),
+        pd.Timestamp("2011-01-01 00:00", tz="Asia/Kuala_Lumpur"),
+        np.datetime64("2011-01-01T18:00"),
+    ):
+        assert S.sunrise_sunset(d, 1.28, 103.45).sunrise == ref.sunrise, d
+    idx = pd.date_range("2011-01-01", periods=3, freq="D", tz="Asia/Kuala_Lumpur")
+    many = S.sunrise_sunset(idx, 1.28, 103.45)
+    assert many.sunrise[0] == ref.sunrise and many.sunrise.shape == (3,)
+    series = S.sun_position(pd.Series(idx), 1.28, 103.45)
+    assert series.zenith.shape == (3,)
+
+
 def test_high_latitude_and_twilight():
     r = S.sunrise_sunset(np.datetime64("2024-06-21"), 65.0, 25.0)
     assert not (r.polar_day or r.polar_night)
