@@ -283,6 +283,7 @@ _B = [_table(getattr(_tab, f"B{i}")) for i in range(2)]
 _R = [_table(getattr(_tab, f"R{i}")) for i in range(5)]
 _NUT_ARGS_INT = np.asarray(_tab.NUTATION_ARGS, dtype=np.int64)
 _NUT_COEFFS = np.asarray(_tab.NUTATION_COEFFS, dtype=np.float64)  # (63, 4) in 1e-4 arcsec
+_NUT_COEFFS_COLS = tuple(np.ascontiguousarray(col) for col in _NUT_COEFFS.T)
 
 
 def _earth_series(series, jme: np.ndarray) -> np.ndarray:
@@ -371,9 +372,9 @@ def _spa_time_terms(d: np.ndarray, dt_s: np.ndarray, *, run_step=None) -> dict[s
     rot = powers[_NUT_ARGS_INT[:, 0] + 2, 0]
     for j in range(1, 5):
         rot = rot * powers[_NUT_ARGS_INT[:, j] + 2, j]
-    a, b, c, dd = _NUT_COEFFS.T
-    dpsi = np.einsum("kn,kn->n", a[:, None] + b[:, None] * jce, rot.imag)
-    deps = np.einsum("kn,kn->n", c[:, None] + dd[:, None] * jce, rot.real)
+    a, b, c, dd = _NUT_COEFFS_COLS
+    dpsi = (a @ rot).imag + jce * (b @ rot).imag
+    deps = (c @ rot).real + jce * (dd @ rot).real
     dpsi = dpsi * (_DEG / 36e6)  # 0.0001″ → rad
     deps = deps * (_DEG / 36e6)
     # obliquity (Eq. 24–25)
