@@ -612,6 +612,29 @@ def _block(d, q, sin_dec, sin_xi, lon_rad, sphi, cphi, xs, ys, p_hpa, temp_c, re
     return zen, true_zen, azimuth, direction
 
 
+def _blocks(shape: tuple[int, ...], chunk: int):
+    """Index tuples covering ``shape`` in blocks of at most ``chunk`` elements (C order).
+
+    Blocks are slices of the leading axis when a row fits, else single leading indices with
+    the rest split recursively, so memory stays bounded whatever the shape.
+    """
+    if len(shape) == 0:
+        yield ()
+        return
+    inner = int(np.prod(shape[1:], dtype=np.int64))
+    if inner <= chunk:
+        rows = max(1, chunk // max(inner, 1))
+        for s in range(0, shape[0], rows):
+            yield (slice(s, s + rows),)
+        return
+    if len(shape) == 1:  # pragma: no cover - inner == 1 always fits
+        yield (slice(None),)
+        return
+    for i in range(shape[0]):
+        for sub in _blocks(shape[1:], chunk):
+            yield (i, *sub)
+
+
 # ---------------------------------------------------------------------------------------------
 # result types and registry
 # ---------------------------------------------------------------------------------------------
@@ -807,14 +830,9 @@ def sun_position(
     azi = np.empty(shape)
     direc = np.empty((*shape, 3))
     ins = [d, cols["q"], cols["sin_dec"], sin_xi, lon_rad, sphi, cphi, xs, ys, p_hpa, temp_c]
-    if len(shape) == 0:
-        zen[()], tzen[()], azi[()], direc[...] = _block(*ins, refraction)
-    else:
-        ins = [np.broadcast_to(a, shape) for a in ins]
-        rows = max(1, _CHUNK // max(1, int(np.prod(shape[1:]))))
-        for s in range(0, shape[0], rows):
-            sl = slice(s, s + rows)
-            zen[sl], tzen[sl], azi[sl], direc[sl] = _block(*(a[sl] for a in ins), refraction)
+    ins = [np.broadcast_to(a, shape) for a in ins]
+    for idx in _blocks(shape, _CHUNK):
+        zen[idx], tzen[idx], azi[idx], direc[idx] = _block(*(a[idx] for a in ins), refraction)
 
     def fin(a):
         a = a.astype(out_dtype, copy=False)

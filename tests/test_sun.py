@@ -222,6 +222,25 @@ def test_large_chunked_batch_matches_small():
     assert np.allclose(big.zenith[-50:], small.zenith, atol=1e-12)
 
 
+def test_wide_trailing_axis_is_blocked(monkeypatch):
+    """Blocks stay bounded when one row is larger than the block size (shape (2, n))."""
+    monkeypatch.setattr(S, "_CHUNK", 64)
+    t = np.datetime64("2022-01-01") + np.arange(2) * np.timedelta64(5, "h")
+    lat = np.linspace(-80, 80, 1000)
+    wide = S.sun_position(t[:, None], lat, 30.0)
+    assert [len(list(S._blocks((2, 1000), 64)))] == [2 * 16]
+    monkeypatch.setattr(S, "_CHUNK", 1 << 15)
+    ref = S.sun_position(t[:, None], lat, 30.0)
+    assert np.array_equal(wide.zenith, ref.zenith) and np.array_equal(wide.direction, ref.direction)
+
+
+def test_empty_input():
+    sp = S.sun_position(np.array([], dtype="datetime64[s]"), 10.0, 10.0)
+    assert sp.zenith.shape == (0,) and sp.direction.shape == (0, 3)
+    r = S.sunrise_sunset(np.array([], dtype="datetime64[D]"), 10.0, 10.0)
+    assert r.sunrise.shape == (0,)
+
+
 def test_float32_in_float32_out():
     t = np.datetime64("2022-05-01") + np.arange(10) * np.timedelta64(1, "h")
     sp = S.sun_position(t, np.float32(40.0), np.full(10, -3.0, dtype=np.float32))
