@@ -283,7 +283,8 @@ _B = [_table(getattr(_tab, f"B{i}")) for i in range(2)]
 _R = [_table(getattr(_tab, f"R{i}")) for i in range(5)]
 _NUT_ARGS_INT = np.asarray(_tab.NUTATION_ARGS, dtype=np.int64)
 _NUT_COEFFS = np.asarray(_tab.NUTATION_COEFFS, dtype=np.float64)  # (63, 4) in 1e-4 arcsec
-_NUT_COEFFS_COLS = tuple(np.ascontiguousarray(col) for col in _NUT_COEFFS.T)
+_NUT_PSI = np.ascontiguousarray(_NUT_COEFFS[:, :2].T)  # (2, 63): a, b
+_NUT_EPS = np.ascontiguousarray(_NUT_COEFFS[:, 2:].T)  # (2, 63): c, d
 
 
 def _earth_series(series, jme: np.ndarray) -> np.ndarray:
@@ -372,9 +373,12 @@ def _spa_time_terms(d: np.ndarray, dt_s: np.ndarray, *, run_step=None) -> dict[s
     rot = powers[_NUT_ARGS_INT[:, 0] + 2, 0]
     for j in range(1, 5):
         rot = rot * powers[_NUT_ARGS_INT[:, j] + 2, j]
-    a, b, c, dd = _NUT_COEFFS_COLS
-    dpsi = (a @ rot).imag + jce * (b @ rot).imag
-    deps = (c @ rot).real + jce * (dd @ rot).real
+    # real matrix products on the real/imaginary parts: a complex matrix-vector product with a
+    # real vector goes through a multithreaded zgemv that stalls badly on a busy machine
+    sums_psi = _NUT_PSI @ rot.imag  # (2, n): Σ a sin, Σ b sin
+    sums_eps = _NUT_EPS @ rot.real  # (2, n): Σ c cos, Σ d cos
+    dpsi = sums_psi[0] + jce * sums_psi[1]
+    deps = sums_eps[0] + jce * sums_eps[1]
     dpsi = dpsi * (_DEG / 36e6)  # 0.0001″ → rad
     deps = deps * (_DEG / 36e6)
     # obliquity (Eq. 24–25)
