@@ -292,7 +292,8 @@ def _earth_series(series, jme: np.ndarray) -> np.ndarray:
     total = np.zeros_like(jme)
     for power, (a, b, c) in enumerate(series):
         term = np.cos(b[:, None] + c[:, None] * jme[None, :])
-        total += (a @ term) * jme**power
+        # einsum, not a BLAS gemv: gemv goes multithreaded at this size and stalls under load
+        total += np.einsum("k,kn->n", a, term) * jme**power
     return total * 1e-8
 
 
@@ -979,7 +980,7 @@ def sunrise_sunset(dates, latitude, longitude, *, horizon=HORIZON_APPARENT, delt
     horizon : array_like
         Altitude of the Sun's centre at rise/set [rad]; default :data:`HORIZON_APPARENT`
         (−0.8333°: standard refraction plus semi-diameter).  Use e.g. ``np.deg2rad(-6)`` for
-        civil twilight.  Must be in (−π/2, π/2).
+        civil twilight.  In [−π/2, π/2].
     delta_t : array_like or None
         TT − UT [s]; ``None`` uses :func:`default_delta_t`.
 
