@@ -195,6 +195,29 @@ def test_spectral_shape_is_colour_science_D_series():
     np.testing.assert_allclose(Y, Yxy[:, 0], rtol=2e-3)
 
 
+def test_spectral_negative_values_warn_or_clip():
+    """Low sun: chromaticities off the daylight locus make S_D negative in the violet."""
+    sun = direction(math.radians(88), 0.0)
+    v = random_directions(400, seed=21, upper=True)
+    with pytest.warns(ac.PreethamValidityWarning, match="negative"):
+        raw = ac.preetham_sky_spectral(v, sun, 2.0)
+    assert raw.min() < 0
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        clipped = ac.preetham_sky_spectral(v, sun, 2.0, clip_negative=True)
+    assert clipped.min() >= 0.0
+    wl = ac.sky.preetham.DEFAULT_WAVELENGTHS
+    Y = ac.preetham_sky_Yxy(v, sun, 2.0)[:, 0]
+    np.testing.assert_allclose(ac.spectral_to_XYZ(clipped, wl)[:, 1], Y, rtol=1e-12)
+    untouched = raw.min(axis=1) >= 0
+    assert untouched.any()
+    np.testing.assert_array_equal(clipped[untouched], raw[untouched])
+    # a high sun in the fit range gives non-negative spectra and no warning
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert ac.preetham_sky_spectral(v, direction(0.5, 0.0), 4.0).min() >= 0
+
+
 def test_spectral_bad_wavelengths_and_option():
     sun = direction(0.5, 0.0)
     with pytest.raises(ValueError, match="wavelengths"):

@@ -58,7 +58,7 @@ from functools import lru_cache
 import numpy as np
 
 from .._validate import as_float_array, check_option
-from ..colour import XYZ_to_linear_rgb, spectral_to_XYZ
+from ..colour import K_M, XYZ_to_linear_rgb, cmf_weights, spectral_to_XYZ
 from .perez import _horizon_term
 
 try:  # the compiled kernel is optional: the NumPy path below computes the same model
@@ -369,7 +369,7 @@ def _numpy_chunk(v, sun, coef, zen_scaled, matrix, kind, out):
 # The float32 path replaces the six exponentials and the arccos per direction by linear
 # interpolation in lookup tables of the two Perez factors (an algebraic shortcut, checked
 # against the float64 formula in tests/test_preetham.py with a stated tolerance of 1e-5
-# relative; measured ≤ 2e-6):
+# relative; measured ≤ 4e-6):
 #   circumsolar factor  1 + C e^{Dγ} + E cos²γ, tabulated uniformly in sin(γ/2) = |v̂ − ŝ|/2
 #       for γ ≤ 90° and in cos(γ/2) = |v̂ + ŝ|/2 for γ ≥ 90° (both smooth in their halves,
 #       and computed from differences of unit vectors, so accurate at γ → 0 and γ → 180°
@@ -564,29 +564,6 @@ def _evaluate(view_directions, sun_direction, turbidity, kind, matrix, out_of_ra
     return out.reshape(shape)
 
 
-_DIRECTION_PARAMETERS = """
-    Parameters
-    ----------
-    view_directions : array_like
-        Unit view directions, shape (..., 3), local frame x = east, y = north, z = up.
-        float32 input gives float32 output (compiled path: table interpolation of the
-        Perez factors, within 1e-5 relative of float64, measured ≤ 2e-6); anything else is
-        evaluated in float64 from the formulas.
-        Non-unit vectors are normalised; NaN (or a zero vector) gives NaN.
-    sun_direction : array_like
-        Direction toward the sun, shape (3,), same frame (normalised internally).
-    turbidity : float
-        Turbidity (scalar), fit range 2–10; see the module's validity policy. [1]
-"""
-
-_POLICY = """
-    out_of_range : {"warn", "raise"}
-        Turbidity outside [2, 10]: warn (:class:`PreethamValidityWarning`) and clamp, or raise.
-    backend : {"auto", "numba", "numpy"}
-        ``"auto"`` uses the compiled parallel kernel when numba is installed, else chunked NumPy.
-"""
-
-
 def preetham_sky(
     view_directions, sun_direction, turbidity, *, out_of_range="warn", backend="auto"
 ):
@@ -595,16 +572,24 @@ def preetham_sky(
     ``Y = Y_z F_Y(θ, γ)/F_Y(0, θ_s)``, ``x``, ``y`` likewise (seed 003 §5–6, seed 004,
     errata 003.3), then ``X = x Y / y``, ``Z = (1 − x − y) Y / y``. Exact to the published
     model (float64: ≤ 1e-12 relative to a scalar transcription of the formulas).
-    """
-    return _evaluate(
-        view_directions, sun_direction, turbidity, _KIND_XYZ, None, out_of_range, backend
-    )
 
+    Parameters
+    ----------
+    view_directions : array_like
+        Unit view directions, shape (..., 3), local frame x = east, y = north, z = up.
+        float32 input gives float32 output (compiled path: table interpolation of the
+        Perez factors, within 1e-5 relative of float64, measured ≤ 4e-6); anything else is
+        evaluated in float64 from the formulas.
+        Non-unit vectors are normalised; NaN (or a zero vector) gives NaN.
+    sun_direction : array_like
+        Direction toward the sun, shape (3,), same frame (normalised internally).
+    turbidity : float
+        Turbidity (scalar), fit range 2–10; see the module's validity policy. [1]
+    out_of_range : {"warn", "raise"}
+        Turbidity outside [2, 10]: warn (:class:`PreethamValidityWarning`) and clamp, or raise.
+    backend : {"auto", "numba", "numpy"}
+        ``"auto"`` uses the compiled parallel kernel when numba is installed, else chunked NumPy.
 
-preetham_sky.__doc__ += (
-    _DIRECTION_PARAMETERS
-    + _POLICY
-    + """
     Returns
     -------
     numpy.ndarray
@@ -619,28 +604,40 @@ preetham_sky.__doc__ += (
     >>> round(float(XYZ[1]) / 1000, 3)   # zenith luminance Y_z [kcd m^-2]
     8.211
     """
-)
+    return _evaluate(
+        view_directions, sun_direction, turbidity, _KIND_XYZ, None, out_of_range, backend
+    )
 
 
 def preetham_sky_Yxy(
     view_directions, sun_direction, turbidity, *, out_of_range="warn", backend="auto"
 ):
-    """Preetham sky as CIE Yxy (luminance [cd m⁻²], chromaticity x, y) on the last axis."""
-    return _evaluate(
-        view_directions, sun_direction, turbidity, _KIND_YXY, None, out_of_range, backend
-    )
+    """Preetham sky as CIE Yxy (luminance [cd m⁻²], chromaticity x, y) on the last axis.
+    Parameters
+    ----------
+    view_directions : array_like
+        Unit view directions, shape (..., 3), local frame x = east, y = north, z = up.
+        float32 input gives float32 output (compiled path: table interpolation of the
+        Perez factors, within 1e-5 relative of float64, measured ≤ 4e-6); anything else is
+        evaluated in float64 from the formulas.
+        Non-unit vectors are normalised; NaN (or a zero vector) gives NaN.
+    sun_direction : array_like
+        Direction toward the sun, shape (3,), same frame (normalised internally).
+    turbidity : float
+        Turbidity (scalar), fit range 2–10; see the module's validity policy. [1]
+    out_of_range : {"warn", "raise"}
+        Turbidity outside [2, 10]: warn (:class:`PreethamValidityWarning`) and clamp, or raise.
+    backend : {"auto", "numba", "numpy"}
+        ``"auto"`` uses the compiled parallel kernel when numba is installed, else chunked NumPy.
 
-
-preetham_sky_Yxy.__doc__ += (
-    _DIRECTION_PARAMETERS
-    + _POLICY
-    + """
     Returns
     -------
     numpy.ndarray
         ``(Y [cd m⁻²], x, y)`` on the last axis (note the Yxy order, not colour-science's xyY).
     """
-)
+    return _evaluate(
+        view_directions, sun_direction, turbidity, _KIND_YXY, None, out_of_range, backend
+    )
 
 
 @lru_cache(maxsize=32)
@@ -672,28 +669,36 @@ def preetham_sky_rgb(
     The linear transform is the one of :func:`atmoscatter.colour.XYZ_to_linear_rgb` for
     ``colourspace`` (default linear sRGB / Rec. 709 primaries, no encoding curve), fused
     into the per-direction kernel.
-    """
-    matrix = _xyz_to_rgb_matrix(colourspace)
-    return _evaluate(
-        view_directions, sun_direction, turbidity, _KIND_RGB, matrix, out_of_range, backend
-    )
 
-
-preetham_sky_rgb.__doc__ += (
-    _DIRECTION_PARAMETERS
-    + """
+    Parameters
+    ----------
+    view_directions : array_like
+        Unit view directions, shape (..., 3), local frame x = east, y = north, z = up.
+        float32 input gives float32 output (compiled path: table interpolation of the
+        Perez factors, within 1e-5 relative of float64, measured ≤ 4e-6); anything else is
+        evaluated in float64 from the formulas.
+        Non-unit vectors are normalised; NaN (or a zero vector) gives NaN.
+    sun_direction : array_like
+        Direction toward the sun, shape (3,), same frame (normalised internally).
+    turbidity : float
+        Turbidity (scalar), fit range 2–10; see the module's validity policy. [1]
     colourspace : str
         A colour-science RGB colourspace name (``colour.RGB_COLOURSPACES``). [default "sRGB"]
-"""
-    + _POLICY
-    + """
+    out_of_range : {"warn", "raise"}
+        Turbidity outside [2, 10]: warn (:class:`PreethamValidityWarning`) and clamp, or raise.
+    backend : {"auto", "numba", "numpy"}
+        ``"auto"`` uses the compiled parallel kernel when numba is installed, else chunked NumPy.
+
     Returns
     -------
     numpy.ndarray
         Linear RGB on the last axis, scaled so that luminance is in cd m⁻² (out-of-gamut
         colours may have negative components; nothing is clipped).
     """
-)
+    matrix = _xyz_to_rgb_matrix(colourspace)
+    return _evaluate(
+        view_directions, sun_direction, turbidity, _KIND_RGB, matrix, out_of_range, backend
+    )
 
 
 # ----------------------------------------------------------------------------------------------
@@ -751,6 +756,7 @@ def preetham_sky_spectral(
     wavelengths=None,
     *,
     m_coefficients="published",
+    clip_negative=False,
     out_of_range="warn",
     backend="auto",
 ):
@@ -759,6 +765,45 @@ def preetham_sky_spectral(
     For each direction the model's (x, y) give ``M1``, ``M2`` and
     ``S_D(λ) = S_0(λ) + M_1 S_1(λ) + M_2 S_2(λ)`` (seed 004; Wyszecki & Stiles 1982), which
     is scaled so that ``683 lm/W ∫ L(λ) ȳ(λ) dλ`` equals the model's luminance Y.
+
+    Parameters
+    ----------
+    view_directions : array_like
+        Unit view directions, shape (..., 3), local frame x = east, y = north, z = up.
+        float32 input gives float32 output (compiled path: table interpolation of the
+        Perez factors, within 1e-5 relative of float64, measured ≤ 4e-6); anything else is
+        evaluated in float64 from the formulas.
+        Non-unit vectors are normalised; NaN (or a zero vector) gives NaN.
+    sun_direction : array_like
+        Direction toward the sun, shape (3,), same frame (normalised internally).
+    turbidity : float
+        Turbidity (scalar), fit range 2–10; see the module's validity policy. [1]
+    wavelengths : array_like, optional
+        Strictly increasing wavelengths in [300, 830] nm; default 380–780 nm every 5 nm. [nm]
+    m_coefficients : {"published", "exact"}
+        ``"published"``: the printed M1, M2 formulas (seed 004; CIE 15), whose 4-digit
+        coefficients reproduce (x, y) to ~1e-4 after integration; ``"exact"``: M1, M2 solved
+        from the chromaticity equations with the basis' tristimulus values on ``wavelengths``,
+        reproducing (x, y) to rounding.
+    clip_negative : bool
+        The D-series basis was fitted to daylight; for chromaticities far from the daylight
+        locus (low sun: the yellowish sky near the horizon and sun has x ≈ 0.43, y ≈ 0.47)
+        ``S_D`` turns negative at short wavelengths (down to −60 % of the peak at θ_s = 90°,
+        T = 2). ``False`` (default): keep the reconstruction (exact round trip) and issue a
+        :class:`PreethamValidityWarning` when any value is negative; ``True``: set negative
+        values to 0 and rescale each spectrum to keep its luminance Y (its chromaticity then
+        moves toward the spectrum locus; no warning).
+    out_of_range : {"warn", "raise"}
+        Turbidity outside [2, 10]: warn (:class:`PreethamValidityWarning`) and clamp, or raise.
+    backend : {"auto", "numba", "numpy"}
+        ``"auto"`` uses the compiled parallel kernel when numba is installed, else chunked NumPy.
+
+    Returns
+    -------
+    numpy.ndarray
+        Spectral radiance [W m⁻² sr⁻¹ nm⁻¹], shape ``view_directions.shape[:-1] + (n_wl,)``.
+        Integrating it with the CIE 1931 CMFs (``atmoscatter.spectral_to_XYZ``) gives back the
+        model's Y exactly and its (x, y) to the accuracy stated for ``m_coefficients``.
     """
     check_option(m_coefficients, "m_coefficients", _M_METHODS)
     wl = DEFAULT_WAVELENGTHS if wavelengths is None else as_float_array(wavelengths, "wavelengths")
@@ -789,27 +834,24 @@ def preetham_sky_spectral(
             scale = np.where(Y > 0.0, Y / np.where(Y > 0.0, Y_D, 1.0), 0.0)
             scale = np.where(np.isnan(Y), np.nan, scale)
             out[sl] = (w * scale[:, None]) @ S.T
+    negative = out < 0
+    if np.any(negative):
+        if clip_negative:
+            rows = negative.any(axis=1)
+            part = np.maximum(out[rows].astype(np.float64), 0.0)
+            Y_clip = part @ (K_M * cmf_weights(wl)[:, 1])
+            Y_want = flat[rows, 0]
+            with np.errstate(invalid="ignore", divide="ignore"):
+                k = np.where(Y_clip > 0, Y_want / np.where(Y_clip > 0, Y_clip, 1.0), 0.0)
+            out[rows] = part * k[:, None]
+        else:
+            warnings.warn(
+                f"{int(negative.any(axis=1).sum())} spectra of the CIE D-series reconstruction "
+                "have negative values (chromaticity far from the daylight locus); pass "
+                "clip_negative=True to clip them at 0 (keeping Y)",
+                PreethamValidityWarning,
+                stacklevel=2,
+            )
     return out.reshape(Yxy.shape[:-1] + (wl.size,))
 
 
-preetham_sky_spectral.__doc__ += (
-    _DIRECTION_PARAMETERS
-    + """
-    wavelengths : array_like, optional
-        Strictly increasing wavelengths in [300, 830] nm; default 380–780 nm every 5 nm. [nm]
-    m_coefficients : {"published", "exact"}
-        ``"published"``: the printed M1, M2 formulas (seed 004; CIE 15), whose 4-digit
-        coefficients reproduce (x, y) to ~1e-4 after integration; ``"exact"``: M1, M2 solved
-        from the chromaticity equations with the basis' tristimulus values on ``wavelengths``,
-        reproducing (x, y) to rounding.
-"""
-    + _POLICY
-    + """
-    Returns
-    -------
-    numpy.ndarray
-        Spectral radiance [W m⁻² sr⁻¹ nm⁻¹], shape ``view_directions.shape[:-1] + (n_wl,)``.
-        Integrating it with the CIE 1931 CMFs (``atmoscatter.spectral_to_XYZ``) gives back the
-        model's Y exactly and its (x, y) to the accuracy stated for ``m_coefficients``.
-    """
-)
