@@ -408,6 +408,29 @@ def test_shapes(backend):
     assert ac.preetham_sky([[0, 0, 1]], sun, 3, backend=backend).dtype == np.float64  # ints in
 
 
+def test_threads_and_forked_processes_get_consistent_results():
+    """Worker threads use the serial kernel (GIL released); a process forked after the
+    parallel kernel ran must not hang (GNU OpenMP is not fork-safe) and gives the same values."""
+    import multiprocessing as mp
+    from concurrent.futures import ThreadPoolExecutor
+
+    sun = direction(0.6, 1.0)
+    v = random_directions(pm._PARALLEL_MIN + 100, seed=14, dtype=np.float32)
+    ref = ac.preetham_sky_rgb(v, sun, 3.0)  # main thread: parallel kernel
+    with ThreadPoolExecutor(max_workers=2) as ex:
+        outs = list(ex.map(lambda _: ac.preetham_sky_rgb(v, sun, 3.0), range(2)))
+    for out in outs:
+        np.testing.assert_array_equal(out, ref)
+    if "fork" in mp.get_all_start_methods():
+        pool = mp.get_context("fork").Pool(1)
+        try:
+            child = pool.apply_async(ac.preetham_sky_rgb, (v, sun, 3.0)).get(timeout=120)
+        finally:
+            pool.close()
+            pool.join()
+        np.testing.assert_array_equal(child, ref)
+
+
 def test_large_batch_numpy_path_is_chunked_and_equal():
     sun = direction(0.9, 2.0)
     v = random_directions(pm._CHUNK * 2 + 17, seed=12)

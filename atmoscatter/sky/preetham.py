@@ -52,6 +52,8 @@ Wyszecki, G. & Stiles, W. S. (1982). *Color Science*, 2nd ed., §3.3.4 (CIE dayl
 from __future__ import annotations
 
 import math
+import os
+import threading
 import warnings
 from functools import lru_cache
 
@@ -380,6 +382,24 @@ _SQRT_HALF = math.sqrt(0.5)
 #: Below this many directions the serial kernel is used: on a busy machine the parallel
 #: barrier can cost a whole scheduler time slice (milliseconds), more than the work itself.
 _PARALLEL_MIN = 1 << 15
+#: Process that first ran a parallel kernel (its threading layer is initialised there).
+_PARALLEL_PID: int | None = None
+
+
+def _use_parallel(n: int) -> bool:
+    """Whether to run the parallel kernel for ``n`` directions.
+
+    Only from the main thread (callers that already spread work over threads — the kernels
+    release the GIL — get the serial kernel, avoiding oversubscription), and not in a process
+    forked after the parent started the threading layer (GNU OpenMP is not fork-safe).
+    """
+    global _PARALLEL_PID
+    if n < _PARALLEL_MIN or threading.current_thread() is not threading.main_thread():
+        return False
+    pid = os.getpid()
+    if _PARALLEL_PID is None:
+        _PARALLEL_PID = pid
+    return _PARALLEL_PID == pid
 
 
 @lru_cache(maxsize=16)
@@ -548,7 +568,7 @@ def _evaluate(view_directions, sun_direction, turbidity, kind, matrix, out_of_ra
     coef, zen_scaled = _setup(sun, T)
     matrix = np.eye(3) if matrix is None else np.ascontiguousarray(matrix, dtype=np.float64)
     if _HAVE_NUMBA and backend != "numpy":
-        parallel = n >= _PARALLEL_MIN
+        parallel = _use_parallel(n)
         if v.dtype == np.float32:
             circ, hor = _tables(T)
             kernel = _table_parallel if parallel else _table_serial
