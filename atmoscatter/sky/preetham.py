@@ -429,8 +429,9 @@ if _HAVE_NUMBA:
             out[i, 1] = x
             out[i, 2] = y
             return
-        X = x / y * Y
-        Z = (1.0 - x - y) / y * Y
+        Y_over_y = Y / y
+        X = x * Y_over_y
+        Z = (1.0 - x - y) * Y_over_y
         if kind == 0:
             out[i, 0] = X
             out[i, 1] = Y
@@ -474,8 +475,14 @@ if _HAVE_NUMBA:
 
     @_jit_inline
     def _table_point(x, y, z, sx, sy, sz, circ, hor, zen):  # pragma: no cover - compiled
-        """Preetham Yxy of one direction by table interpolation (float32 path)."""
-        inv = 1.0 / math.sqrt(x * x + y * y + z * z)
+        """Preetham Yxy of one float32 direction by table interpolation.
+
+        Geometry in float32 (x, y, z, sx, sy, sz are float32): the chord lengths carry an
+        absolute error of a few 1e-8, far below what the tables resolve; the interpolation
+        and the products are float64.
+        """
+        f32 = np.float32
+        inv = f32(1.0) / math.sqrt(x * x + y * y + z * z)
         x *= inv
         y *= inv
         z *= inv
@@ -485,17 +492,17 @@ if _HAVE_NUMBA:
         px = x + sx
         py = y + sy
         pz = z + sz
-        u = 0.5 * math.sqrt(dx * dx + dy * dy + dz * dz)  # sin(γ/2)
-        w = 0.5 * math.sqrt(px * px + py * py + pz * pz)  # cos(γ/2)
+        u = f32(0.5) * math.sqrt(dx * dx + dy * dy + dz * dz)  # sin(γ/2)
+        w = f32(0.5) * math.sqrt(px * px + py * py + pz * pz)  # cos(γ/2)
         if not (z == z and u == u and w == w):  # NaN (or a zero vector): never index with it
             return np.nan, np.nan, np.nan
         n1 = hor.shape[0] - 1
-        tc = min(max(z, 0.0), 1.0) * n1
+        tc = np.float64(min(max(z, f32(0.0)), f32(1.0))) * n1
         ic = min(int(tc), n1 - 1)
         fc = tc - ic
         # (no array rebinding in the loop: that would cost NRT reference counting per element)
         h = 0 if u <= w else 1
-        t = min(u, w) * (n1 / 0.7071067811865476)
+        t = np.float64(min(u, w)) * (n1 / 0.7071067811865476)
         ig = min(int(t), n1 - 1)
         fg = t - ig
         r0 = (hor[ic, 0] + fc * (hor[ic + 1, 0] - hor[ic, 0])) * (
@@ -531,18 +538,16 @@ if _HAVE_NUMBA:
     def _table_parallel(v, sun, circ, hor, zen, M, kind, out):  # pragma: no cover
         for i in numba.prange(v.shape[0]):
             Y, x, y = _table_point(
-                np.float64(v[i, 0]), np.float64(v[i, 1]), np.float64(v[i, 2]),
-                sun[0], sun[1], sun[2], circ, hor, zen,
-            )  # fmt: skip
+                v[i, 0], v[i, 1], v[i, 2], sun[0], sun[1], sun[2], circ, hor, zen
+            )
             _emit(out, i, Y, x, y, kind, M)
 
     @numba.njit(cache=True, nogil=True, error_model="numpy")
     def _table_serial(v, sun, circ, hor, zen, M, kind, out):  # pragma: no cover
         for i in range(v.shape[0]):
             Y, x, y = _table_point(
-                np.float64(v[i, 0]), np.float64(v[i, 1]), np.float64(v[i, 2]),
-                sun[0], sun[1], sun[2], circ, hor, zen,
-            )  # fmt: skip
+                v[i, 0], v[i, 1], v[i, 2], sun[0], sun[1], sun[2], circ, hor, zen
+            )
             _emit(out, i, Y, x, y, kind, M)
 
 
@@ -572,7 +577,7 @@ def _evaluate(view_directions, sun_direction, turbidity, kind, matrix, out_of_ra
         if v.dtype == np.float32:
             circ, hor = _tables(T)
             kernel = _table_parallel if parallel else _table_serial
-            kernel(flat, sun, circ, hor, zen_scaled, matrix, kind, out)
+            kernel(flat, sun.astype(np.float32), circ, hor, zen_scaled, matrix, kind, out)
         else:
             kernel = _direct_parallel if parallel else _direct_serial
             kernel(flat, sun, coef, zen_scaled, matrix, kind, out)
