@@ -345,3 +345,12 @@ def test_chunked_evaluation_matches_small_calls():
     v = rng.normal(size=(n, 3))
     sky = ac.hoffman_preetham_sky(v, SUN)
     np.testing.assert_allclose(sky[idx], ac.hoffman_preetham_sky(v[idx], SUN), rtol=1e-15)
+
+
+def test_scalar_shapes():
+    out = ac.aerial_perspective([10.0, 20.0, 30.0], 500.0, [0.0, 1.0, 0.0], SUN)
+    assert out.shape == (3,)
+    ref = ac.aerial_perspective(np.array([[10.0, 20.0, 30.0]]), np.array([500.0]), [0.0, 1.0, 0.0], SUN)
+    np.testing.assert_allclose(out, ref[0], rtol=1e-15)
+    assert ac.hoffman_preetham_sky([0.0, 0.0, 1.0], SUN).shape == (3,)
+    assert np.ndim(ac.one_minus_exp_ratio(0.5)) == 0
