@@ -127,7 +127,8 @@ _CHUNK = 1 << 16
 
 
 class PreethamValidityWarning(UserWarning):
-    """The Preetham model was asked for a turbidity outside its fitted range and clamped it."""
+    """The Preetham model left its fitted domain: turbidity clamped into [2, 10], or negative
+    spectral values from the D-series reconstruction (see :func:`preetham_sky_spectral`)."""
 
 
 # ----------------------------------------------------------------------------------------------
