@@ -341,7 +341,7 @@ def test_nan_and_non_unit_directions(backend):
     np.testing.assert_allclose(ac.preetham_sky(3.0 * v[[0, 1, 4]], sun, 3.0, backend=backend), got[[0, 1, 4]], rtol=1e-14)
 
 
-@pytest.mark.parametrize("n", [2000, pm._PARALLEL_MIN + 5])  # serial and parallel kernels
+@pytest.mark.parametrize("n", [2000, pm._PARALLEL_MIN + 5])  # one thread / thread pool
 @pytest.mark.parametrize("T,tsd", [(2.0, 0.0), (3.0, 70.0), (10.0, 89.9), (6.0, 90.0)])
 @pytest.mark.parametrize("backend", BACKENDS)
 def test_float32_within_tolerance_of_float64(backend, T, tsd, n):
@@ -390,7 +390,7 @@ def test_float32_nan_and_degenerate_directions(n):
 def test_float64_parallel_and_serial_kernels_agree():
     sun = direction(0.6, 1.0)
     v = random_directions(pm._PARALLEL_MIN + 5, seed=13)
-    whole = ac.preetham_sky(v, sun, 4.0)  # parallel kernel
+    whole = ac.preetham_sky(v, sun, 4.0)  # split over the thread pool
     part = ac.preetham_sky(v[:1000], sun, 4.0)  # serial kernel
     np.testing.assert_array_equal(whole[:1000], part)
 
@@ -409,14 +409,14 @@ def test_shapes(backend):
 
 
 def test_threads_and_forked_processes_get_consistent_results():
-    """Worker threads use the serial kernel (GIL released); a process forked after the
-    parallel kernel ran must not hang (GNU OpenMP is not fork-safe) and gives the same values."""
+    """Calls from worker threads run in that thread (GIL released); a process forked after
+    the thread pool started must not hang and gives the same values."""
     import multiprocessing as mp
     from concurrent.futures import ThreadPoolExecutor
 
     sun = direction(0.6, 1.0)
     v = random_directions(pm._PARALLEL_MIN + 100, seed=14, dtype=np.float32)
-    ref = ac.preetham_sky_rgb(v, sun, 3.0)  # main thread: parallel kernel
+    ref = ac.preetham_sky_rgb(v, sun, 3.0)  # main thread: thread pool
     with ThreadPoolExecutor(max_workers=2) as ex:
         outs = list(ex.map(lambda _: ac.preetham_sky_rgb(v, sun, 3.0), range(2)))
     for out in outs:

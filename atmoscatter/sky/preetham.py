@@ -55,6 +55,7 @@ import math
 import os
 import threading
 import warnings
+from concurrent.futures import ThreadPoolExecutor
 from functools import lru_cache
 
 import numpy as np
@@ -380,183 +381,203 @@ def _numpy_chunk(v, sun, coef, zen_scaled, matrix, kind, out):
 #   horizon factor      1 + A e^{B/cos θ}, tabulated uniformly in cos θ ∈ [0, 1].
 _TABLE_NODES = 4096
 _SQRT_HALF = math.sqrt(0.5)
-#: Below this many directions the serial kernel is used: on a busy machine the parallel
-#: barrier can cost a whole scheduler time slice (milliseconds), more than the work itself.
+#: Below this many directions the kernel runs in the calling thread only.
 _PARALLEL_MIN = 1 << 15
-#: Process that first ran a parallel kernel (its threading layer is initialised there).
-_PARALLEL_PID: int | None = None
+#: Rows per task when a call is spread over threads (tasks are handed out dynamically, so a
+#: thread that the OS deschedules on a busy machine does not hold up the others).
+_TASK_ROWS = 1 << 14
+_POOL: ThreadPoolExecutor | None = None
+_POOL_PID: int | None = None
+_POOL_LOCK = threading.Lock()
 
 
-def _use_parallel(n: int) -> bool:
-    """Whether to run the parallel kernel for ``n`` directions.
+def _thread_pool() -> ThreadPoolExecutor | None:
+    """This process's worker pool (created lazily; a forked child makes its own)."""
+    global _POOL, _POOL_PID
+    workers = os.cpu_count() or 1
+    if workers < 2:
+        return None
+    with _POOL_LOCK:
+        if _POOL is None or _POOL_PID != os.getpid():
+            _POOL = ThreadPoolExecutor(max_workers=workers, thread_name_prefix="atmoscatter-sky")
+            _POOL_PID = os.getpid()
+        return _POOL
 
-    Only from the main thread (callers that already spread work over threads — the kernels
-    release the GIL — get the serial kernel, avoiding oversubscription), and not in a process
-    forked after the parent started the threading layer (GNU OpenMP is not fork-safe).
+
+def _run_rows(rows, n: int, args) -> None:
+    """Run the compiled row kernel ``rows(*args, start, stop)`` over ``0:n``.
+
+    The kernels release the GIL, so large calls from the main thread are split into tasks
+    over a thread pool with one worker per core. Plain Python threads (not numba's
+    OpenMP layer, whose workers spin and which is not fork-safe) keep the kernel well-behaved
+    on a shared machine and in forked worker processes. Calls from other threads (a caller
+    that parallelises itself) run in that thread.
     """
-    global _PARALLEL_PID
-    if n < _PARALLEL_MIN or threading.current_thread() is not threading.main_thread():
-        return False
-    pid = os.getpid()
-    if _PARALLEL_PID is None:
-        _PARALLEL_PID = pid
-    return _PARALLEL_PID == pid
+    pool = None
+    if n >= _PARALLEL_MIN and threading.current_thread() is threading.main_thread():
+        pool = _thread_pool()
+    if pool is None:
+        rows(*args, 0, n)
+        return
+    bounds = [(i, min(n, i + _TASK_ROWS)) for i in range(0, n, _TASK_ROWS)]
+    futures = [pool.submit(rows, *args, lo, hi) for lo, hi in bounds[1:]]
+    rows(*args, *bounds[0])
+    for f in futures:
+        f.result()
 
 
 @lru_cache(maxsize=16)
-def _tables(T: float) -> tuple[np.ndarray, np.ndarray]:
-    """Lookup tables: circumsolar (2, N, 3) (near, far halves) and horizon (N, 3); Y, x, y last."""
+def _tables(T: float) -> np.ndarray:
+    """Lookup table (6, 2N) of the float32 kernel for turbidity ``T`` (see :func:`_table_rows`).
+
+    Rows 0–2: horizon factor ``1 + A e^{B/cos θ}`` of Y, x, y at N nodes uniform in
+    cos θ ∈ [0, 1] (then zero padding); rows 3–5: circumsolar factor
+    ``1 + C e^{Dγ} + E cos²γ`` at N nodes uniform in sin(γ/2) ∈ [0, √½] (γ ≤ 90°) followed by
+    N nodes uniform in cos(γ/2) ∈ [0, √½] (γ ≥ 90°).
+    """
+    N = _TABLE_NODES
     coef = _coefficients(np.asarray(T))
     A, B, C, D, E = coef.T
-    s = np.linspace(0.0, _SQRT_HALF, _TABLE_NODES)
+    s = np.linspace(0.0, _SQRT_HALF, N)
     near = 2.0 * np.arcsin(s)  # γ in [0, π/2], node = sin(γ/2)
     far = np.pi - near  # γ in [π/2, π], node = cos(γ/2)
-
-    g = np.stack([near, far])[..., None]
-    circumsolar = np.ascontiguousarray(1.0 + C * np.exp(D * g) + E * np.cos(g) ** 2)
-    c = np.linspace(0.0, 1.0, _TABLE_NODES)[:, None]
-    horizon = np.ascontiguousarray(1.0 + A * _horizon_term(c, B))
-    return circumsolar, horizon
+    g = np.concatenate([near, far])[:, None]
+    c = np.linspace(0.0, 1.0, N)[:, None]
+    tab = np.zeros((6, 2 * N))
+    tab[:3, :N] = (1.0 + A * _horizon_term(c, B)).T
+    tab[3:] = (1.0 + C * np.exp(D * g) + E * np.cos(g) ** 2).T
+    tab.flags.writeable = False
+    return tab
 
 
 if _HAVE_NUMBA:
-    _jit_inline = numba.njit(inline="always", cache=True, error_model="numpy")
+    _njit = numba.njit(cache=True, nogil=True, error_model="numpy")
 
-    @_jit_inline
-    def _emit(out, i, Y, x, y, kind, M):  # pragma: no cover - compiled
-        """Write Yxy (kind 1), XYZ (kind 0) or M·XYZ (kind 2) into row i of ``out``."""
-        if kind == 1:
-            out[i, 0] = Y
-            out[i, 1] = x
-            out[i, 2] = y
-            return
-        Y_over_y = Y / y
-        X = x * Y_over_y
-        Z = (1.0 - x - y) * Y_over_y
-        if kind == 0:
-            out[i, 0] = X
-            out[i, 1] = Y
-            out[i, 2] = Z
-        else:
-            out[i, 0] = M[0, 0] * X + M[0, 1] * Y + M[0, 2] * Z
-            out[i, 1] = M[1, 0] * X + M[1, 1] * Y + M[1, 2] * Z
-            out[i, 2] = M[2, 0] * X + M[2, 1] * Y + M[2, 2] * Z
+    @_njit
+    def _direct_rows(v, sun, coef, zen, M, kind, out, start, stop):  # pragma: no cover
+        """Rows ``start:stop`` of the float64 Preetham evaluation from the formulas.
 
-    @_jit_inline
-    def _direct_point(x, y, z, sx, sy, sz, coef, zen):  # pragma: no cover - compiled
-        """Preetham Yxy of one direction from the formulas (float64, exact)."""
-        inv = 1.0 / math.sqrt(x * x + y * y + z * z)
-        ct = z * inv
-        cg = (x * sx + y * sy + z * sz) * inv
-        if not (ct == ct and cg == cg):  # NaN (or a zero vector) in, NaN out
-            return np.nan, np.nan, np.nan
-        cg = min(max(cg, -1.0), 1.0)
-        ct = min(max(ct, 0.0), 1.0)
-        g = math.acos(cg)
-        cg2 = cg * cg
-        r0 = 0.0
-        r1 = 0.0
-        r2 = 0.0
-        for k in range(3):
-            B = coef[k, 1]
-            # e^{B/cos θ} with the horizon limit: see perez._horizon_term
-            den = max(ct, -B * (1.0 / 745.0) + 2.2250738585072014e-308)
-            f = (
-                zen[k]
-                * (1.0 + coef[k, 0] * math.exp(B / den))
-                * (1.0 + coef[k, 2] * math.exp(coef[k, 3] * g) + coef[k, 4] * cg2)
-            )
-            if k == 0:
-                r0 = f
-            elif k == 1:
-                r1 = f
+        Per direction: normalise, ``cos θ`` (clamped to [0, 1]: horizon value below it),
+        ``γ = acos(v̂·ŝ)``, the three Perez functions with ``e^{B/cos θ}`` guarded as in
+        :func:`perez` (exponent ≥ −745), then Yxy → XYZ → ``M``·XYZ by ``kind``
+        (0 XYZ, 1 Yxy, 2 RGB). NaN or zero vectors give NaN.
+        """
+        sx = sun[0]
+        sy = sun[1]
+        sz = sun[2]
+        for i in range(start, stop):
+            x = np.float64(v[i, 0])
+            y = np.float64(v[i, 1])
+            z = np.float64(v[i, 2])
+            inv = 1.0 / math.sqrt(x * x + y * y + z * z)
+            ct = z * inv
+            cg = (x * sx + y * sy + z * sz) * inv
+            ok = (ct == ct) & (cg == cg)
+            cg = min(max(cg, -1.0), 1.0) if ok else 1.0
+            ct = min(max(ct, 0.0), 1.0) if ok else 1.0
+            g = math.acos(cg)
+            cg2 = cg * cg
+            r = np.empty(3)
+            for k in range(3):
+                B = coef[k, 1]
+                den = max(ct, -B * (1.0 / 745.0) + 2.2250738585072014e-308)
+                r[k] = (
+                    zen[k]
+                    * (1.0 + coef[k, 0] * math.exp(B / den))
+                    * (1.0 + coef[k, 2] * math.exp(coef[k, 3] * g) + coef[k, 4] * cg2)
+                )
+            p = 0.0 if ok else np.nan
+            Y = r[0] + p
+            xc = r[1] + p
+            yc = r[2] + p
+            if kind == 1:
+                out[i, 0] = Y
+                out[i, 1] = xc
+                out[i, 2] = yc
+                continue
+            Yy = Y / yc
+            X = xc * Yy
+            Z = (1.0 - xc - yc) * Yy
+            if kind == 0:
+                out[i, 0] = X
+                out[i, 1] = Y
+                out[i, 2] = Z
             else:
-                r2 = f
-        return r0, r1, r2
+                out[i, 0] = M[0, 0] * X + M[0, 1] * Y + M[0, 2] * Z
+                out[i, 1] = M[1, 0] * X + M[1, 1] * Y + M[1, 2] * Z
+                out[i, 2] = M[2, 0] * X + M[2, 1] * Y + M[2, 2] * Z
 
-    @_jit_inline
-    def _table_point(x, y, z, sx, sy, sz, circ, hor, zen):  # pragma: no cover - compiled
-        """Preetham Yxy of one float32 direction by table interpolation.
+    @_njit
+    def _table_rows(v, sun, tab, zen, M, kind, out, start, stop):  # pragma: no cover
+        """Rows ``start:stop`` of the float32 Preetham evaluation by table interpolation.
 
-        Geometry in float32 (x, y, z, sx, sy, sz are float32): the chord lengths carry an
-        absolute error of a few 1e-8, far below what the tables resolve; the interpolation
-        and the products are float64.
+        ``tab`` (6, 2N): rows 0–2 the horizon factor of Y, x, y on N nodes of cos θ (then
+        padding), rows 3–5 the circumsolar factor on N nodes of sin(γ/2) followed by N nodes
+        of cos(γ/2). Geometry in float32 (the chord lengths carry an absolute error of a few
+        1e-8, far below what the tables resolve); interpolation and products in float64.
+        Written branch-free with unsigned 1-D indices (numba then emits no negative-index
+        wraparound code): about 2x faster than per-direction helper functions on 2-D tables.
+        NaN or zero vectors index row 0 and are poisoned with NaN.
         """
         f32 = np.float32
-        inv = f32(1.0) / math.sqrt(x * x + y * y + z * z)
-        x *= inv
-        y *= inv
-        z *= inv
-        dx = x - sx
-        dy = y - sy
-        dz = z - sz
-        px = x + sx
-        py = y + sy
-        pz = z + sz
-        u = f32(0.5) * math.sqrt(dx * dx + dy * dy + dz * dz)  # sin(γ/2)
-        w = f32(0.5) * math.sqrt(px * px + py * py + pz * pz)  # cos(γ/2)
-        # Branch-free and with unsigned indices (numba then emits no negative-index
-        # wraparound code): ~1.3x faster than the straightforward version. A NaN (or zero)
-        # direction indexes row 0 and is poisoned with NaN at the end.
-        ok = z == z and u == u and w == w
-        n1 = np.float64(hor.shape[0] - 1)
-        tc = np.float64(min(max(z, f32(0.0)), f32(1.0)) if ok else f32(0.0)) * n1
-        ic = np.uint64(min(tc, n1 - 1.0))
-        fc = tc - np.float64(ic)
-        h = np.uint64(0) if u <= w else np.uint64(1)
-        t = np.float64(min(u, w) if ok else f32(0.0)) * (n1 / 0.7071067811865476)
-        ig = np.uint64(min(t, n1 - 1.0))
-        fg = t - np.float64(ig)
-        ic1 = ic + np.uint64(1)
-        ig1 = ig + np.uint64(1)
-        r0 = (hor[ic, 0] + fc * (hor[ic1, 0] - hor[ic, 0])) * (
-            circ[h, ig, 0] + fg * (circ[h, ig1, 0] - circ[h, ig, 0])
-        )
-        r1 = (hor[ic, 1] + fc * (hor[ic1, 1] - hor[ic, 1])) * (
-            circ[h, ig, 1] + fg * (circ[h, ig1, 1] - circ[h, ig, 1])
-        )
-        r2 = (hor[ic, 2] + fc * (hor[ic1, 2] - hor[ic, 2])) * (
-            circ[h, ig, 2] + fg * (circ[h, ig1, 2] - circ[h, ig, 2])
-        )
-        poison = 0.0 if ok else np.nan
-        r0 += poison
-        r1 += poison
-        r2 += poison
-        return zen[0] * r0, zen[1] * r1, zen[2] * r2
-
-    @numba.njit(parallel=True, cache=True, nogil=True, error_model="numpy")
-    def _direct_parallel(v, sun, coef, zen, M, kind, out):  # pragma: no cover - compiled
-        for i in numba.prange(v.shape[0]):
-            Y, x, y = _direct_point(
-                np.float64(v[i, 0]), np.float64(v[i, 1]), np.float64(v[i, 2]),
-                sun[0], sun[1], sun[2], coef, zen,
-            )  # fmt: skip
-            _emit(out, i, Y, x, y, kind, M)
-
-    @numba.njit(cache=True, nogil=True, error_model="numpy")
-    def _direct_serial(v, sun, coef, zen, M, kind, out):  # pragma: no cover - compiled
-        for i in range(v.shape[0]):
-            Y, x, y = _direct_point(
-                np.float64(v[i, 0]), np.float64(v[i, 1]), np.float64(v[i, 2]),
-                sun[0], sun[1], sun[2], coef, zen,
-            )  # fmt: skip
-            _emit(out, i, Y, x, y, kind, M)
-
-    @numba.njit(parallel=True, cache=True, nogil=True, error_model="numpy")
-    def _table_parallel(v, sun, circ, hor, zen, M, kind, out):  # pragma: no cover
-        for i in numba.prange(v.shape[0]):
-            Y, x, y = _table_point(
-                v[i, 0], v[i, 1], v[i, 2], sun[0], sun[1], sun[2], circ, hor, zen
-            )
-            _emit(out, i, Y, x, y, kind, M)
-
-    @numba.njit(cache=True, nogil=True, error_model="numpy")
-    def _table_serial(v, sun, circ, hor, zen, M, kind, out):  # pragma: no cover
-        for i in range(v.shape[0]):
-            Y, x, y = _table_point(
-                v[i, 0], v[i, 1], v[i, 2], sun[0], sun[1], sun[2], circ, hor, zen
-            )
-            _emit(out, i, Y, x, y, kind, M)
+        sx = sun[0]
+        sy = sun[1]
+        sz = sun[2]
+        N = tab.shape[1] // 2
+        n1 = np.float64(N - 1)
+        scale = n1 / 0.7071067811865476
+        h0 = tab[0]
+        h1 = tab[1]
+        h2 = tab[2]
+        c0 = tab[3]
+        c1 = tab[4]
+        c2 = tab[5]
+        for i in range(start, stop):
+            x = v[i, 0]
+            y = v[i, 1]
+            z = v[i, 2]
+            inv = f32(1.0) / math.sqrt(x * x + y * y + z * z)
+            x *= inv
+            y *= inv
+            z *= inv
+            dx = x - sx
+            dy = y - sy
+            dz = z - sz
+            px = x + sx
+            py = y + sy
+            pz = z + sz
+            u = f32(0.5) * math.sqrt(dx * dx + dy * dy + dz * dz)  # sin(γ/2)
+            w = f32(0.5) * math.sqrt(px * px + py * py + pz * pz)  # cos(γ/2)
+            ok = (z == z) & (u == u) & (w == w)
+            tc = np.float64(min(max(z, f32(0.0)), f32(1.0)) if ok else f32(0.0)) * n1
+            ic = np.uint64(min(tc, n1 - 1.0))
+            fc = tc - np.float64(ic)
+            t = np.float64(min(u, w) if ok else f32(0.0)) * scale
+            j = np.uint64(min(t, n1 - 1.0))
+            fg = t - np.float64(j)
+            ig = j + (np.uint64(N) if u > w else np.uint64(0))
+            ic1 = ic + np.uint64(1)
+            ig1 = ig + np.uint64(1)
+            p = 0.0 if ok else np.nan
+            Y = zen[0] * (h0[ic] + fc * (h0[ic1] - h0[ic])) * (c0[ig] + fg * (c0[ig1] - c0[ig])) + p
+            xc = zen[1] * (h1[ic] + fc * (h1[ic1] - h1[ic])) * (c1[ig] + fg * (c1[ig1] - c1[ig])) + p
+            yc = zen[2] * (h2[ic] + fc * (h2[ic1] - h2[ic])) * (c2[ig] + fg * (c2[ig1] - c2[ig])) + p
+            if kind == 1:
+                out[i, 0] = Y
+                out[i, 1] = xc
+                out[i, 2] = yc
+                continue
+            Yy = Y / yc
+            X = xc * Yy
+            Z = (1.0 - xc - yc) * Yy
+            if kind == 0:
+                out[i, 0] = X
+                out[i, 1] = Y
+                out[i, 2] = Z
+            else:
+                out[i, 0] = M[0, 0] * X + M[0, 1] * Y + M[0, 2] * Z
+                out[i, 1] = M[1, 0] * X + M[1, 1] * Y + M[1, 2] * Z
+                out[i, 2] = M[2, 0] * X + M[2, 1] * Y + M[2, 2] * Z
 
 
 def _evaluate(view_directions, sun_direction, turbidity, kind, matrix, out_of_range, backend):
@@ -581,14 +602,11 @@ def _evaluate(view_directions, sun_direction, turbidity, kind, matrix, out_of_ra
     coef, zen_scaled = _setup(sun, T)
     matrix = np.eye(3) if matrix is None else np.ascontiguousarray(matrix, dtype=np.float64)
     if _HAVE_NUMBA and backend != "numpy":
-        parallel = _use_parallel(n)
         if v.dtype == np.float32:
-            circ, hor = _tables(T)
-            kernel = _table_parallel if parallel else _table_serial
-            kernel(flat, sun.astype(np.float32), circ, hor, zen_scaled, matrix, kind, out)
+            args = (flat, sun.astype(np.float32), _tables(T), zen_scaled, matrix, kind, out)
+            _run_rows(_table_rows, n, args)
         else:
-            kernel = _direct_parallel if parallel else _direct_serial
-            kernel(flat, sun, coef, zen_scaled, matrix, kind, out)
+            _run_rows(_direct_rows, n, (flat, sun, coef, zen_scaled, matrix, kind, out))
     else:
         with np.errstate(invalid="ignore", divide="ignore"):  # NaN/zero vectors give NaN
             for start in range(0, n, _CHUNK):
@@ -621,7 +639,8 @@ def preetham_sky(
     out_of_range : {"warn", "raise"}
         Turbidity outside [2, 10]: warn (:class:`PreethamValidityWarning`) and clamp, or raise.
     backend : {"auto", "numba", "numpy"}
-        ``"auto"`` uses the compiled parallel kernel when numba is installed, else chunked NumPy.
+        ``"auto"`` uses the compiled kernel (threaded over the cores for large calls) when numba
+        is installed, else chunked NumPy.
 
     Returns
     -------
@@ -661,7 +680,8 @@ def preetham_sky_Yxy(
     out_of_range : {"warn", "raise"}
         Turbidity outside [2, 10]: warn (:class:`PreethamValidityWarning`) and clamp, or raise.
     backend : {"auto", "numba", "numpy"}
-        ``"auto"`` uses the compiled parallel kernel when numba is installed, else chunked NumPy.
+        ``"auto"`` uses the compiled kernel (threaded over the cores for large calls) when numba
+        is installed, else chunked NumPy.
 
     Returns
     -------
@@ -720,7 +740,8 @@ def preetham_sky_rgb(
     out_of_range : {"warn", "raise"}
         Turbidity outside [2, 10]: warn (:class:`PreethamValidityWarning`) and clamp, or raise.
     backend : {"auto", "numba", "numpy"}
-        ``"auto"`` uses the compiled parallel kernel when numba is installed, else chunked NumPy.
+        ``"auto"`` uses the compiled kernel (threaded over the cores for large calls) when numba
+        is installed, else chunked NumPy.
 
     Returns
     -------
@@ -829,7 +850,8 @@ def preetham_sky_spectral(
     out_of_range : {"warn", "raise"}
         Turbidity outside [2, 10]: warn (:class:`PreethamValidityWarning`) and clamp, or raise.
     backend : {"auto", "numba", "numpy"}
-        ``"auto"`` uses the compiled parallel kernel when numba is installed, else chunked NumPy.
+        ``"auto"`` uses the compiled kernel (threaded over the cores for large calls) when numba
+        is installed, else chunked NumPy.
 
     Returns
     -------
