@@ -206,7 +206,7 @@ def test_reference_rtol_reaches_1e6_on_earth_preset():
 
 def test_registry_and_default():
     assert set(SINGLE_SCATTERING_METHODS) == {
-        "keller_bohn", "midpoint", "gauss_legendre", "graded", "reference"}
+        "keller_bohn", "midpoint", "gauss_legendre", "graded", "table", "reference"}
     assert DEFAULT_SINGLE_SCATTERING_METHOD in SINGLE_SCATTERING_METHODS
 
 
