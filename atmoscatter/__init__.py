@@ -22,6 +22,7 @@ from .scattering import *  # noqa: F403
 # sun
 # analytic skies
 # numerical scattering
+from .sky.multiple import *  # noqa: F403
 from .sky.single import *  # noqa: F403
 from .solar import *  # noqa: F403
 from .standard_atmosphere import *  # noqa: F403

@@ -74,7 +74,7 @@ class MultipleScatteringGrid:
         Largest solar zenith angle on the grid [deg] (beyond: deep night, clamped).
     """
 
-    n_altitude: int = 10
+    n_altitude: int = 16
     n_sun: int = 14
     n_mu: int = 16
     n_phi: int = 9
@@ -102,6 +102,7 @@ class _March:
     ground: np.ndarray  # (N,) ray ends on the ground
     t_end: np.ndarray  # (N, nwl) transmittance to the end
     mus_end: np.ndarray  # (N,) sun zenith cosine at the end point
+    loc: tuple | None = None  # cached interpolation coordinates on the field grid
 
 
 def _march(atm: qd.PreparedAtmosphere, r0: float, v: np.ndarray, s: np.ndarray, q: int) -> _March:
@@ -254,52 +255,69 @@ def _interp_e(field: _Field, E: np.ndarray, mus: np.ndarray) -> np.ndarray:
 def _gather(field: _Field, march: _March, S: np.ndarray) -> np.ndarray:
     """Σ_samples w T Σ_i β_i ρ_i S_i: S (n_r, n_s, n_mu, n_phi, n_sc, nwl) → (N, nwl)."""
     nsc, nwl = S.shape[-2:]
-    loc = field.locate(march.h, march.mus, march.mu, march.cphi)
-    vals = field.interp(S.reshape(field.shape + (nsc * nwl,)), loc)
+    if march.loc is None:
+        march.loc = field.locate(march.h, march.mus, march.mu, march.cphi)
+    vals = field.interp(S.reshape(field.shape + (nsc * nwl,)), march.loc)
     vals = vals.reshape(march.h.shape + (nsc, nwl))
     return np.einsum("nmiw,nmiw->nw", march.wt, vals)
 
 
-def _build_field(atm: qd.PreparedAtmosphere, grid: MultipleScatteringGrid, albedo: float, orders: int):
-    """Σ_{k=1}^{orders-1} S^k on the grid, (n_r, n_s, n_mu, n_phi, n_sc, nwl)."""
-    field = _Field(atm, grid)
-    dirs = field.directions()
-    nwl, nsc = atm.n_wavelengths, len(atm.scatterers)
-    n_r, n_s, n_mu, n_phi = field.shape
-    marches = {}
-    L = np.zeros(field.shape + (nwl,))
-    for i, h in enumerate(field.h_nodes):
-        r0 = atm.planet_radius + h
-        for j, th in enumerate(field.ths):
-            s = np.array([np.sin(th), 0.0, np.cos(th)])
-            mc = _march(atm, r0, dirs, s, grid.order)
-            marches[i, j] = mc
-            # order 1: exact single scattering + ground-reflected direct sun
-            J = _single_J(atm, r0, dirs, s, grid.order)
-            B = atm.scattering_weights(np.clip(dirs @ s, -1.0, 1.0))
-            path = np.sum(B * J, axis=0)
-            if albedo > 0:
-                e0 = _direct_ground_irradiance(atm, mc.mus_end, grid.order)
-                path += np.where(mc.ground[:, None], mc.t_end * albedo / np.pi * e0, 0.0)
-            L[i, j] = path.reshape(n_mu, n_phi, nwl)
-    W = field.phase_matrices()  # (nsc, ndir, ndir)
-    S_sum = np.zeros(field.shape + (nsc, nwl))
-    for _order in range(1, orders):
+class _FieldState:
+    """Successive orders on the grid, extended on demand and cached per atmosphere."""
+
+    def __init__(self, atm: qd.PreparedAtmosphere, grid: MultipleScatteringGrid, albedo: float):
+        self.atm, self.albedo = atm, albedo
+        self.field = field = _Field(atm, grid)
+        dirs = field.directions()
+        nwl = atm.n_wavelengths
+        n_r, n_s, n_mu, n_phi = field.shape
+        self.marches = {}
+        L = np.zeros(field.shape + (nwl,))
+        for i, h in enumerate(field.h_nodes):
+            r0 = atm.planet_radius + h
+            for j, th in enumerate(field.ths):
+                s = np.array([np.sin(th), 0.0, np.cos(th)])
+                mc = _march(atm, r0, dirs, s, grid.order)
+                self.marches[i, j] = mc
+                # order 1: exact single scattering + ground-reflected direct sun
+                J = _single_J(atm, r0, dirs, s, grid.order)
+                B = atm.scattering_weights(np.clip(dirs @ s, -1.0, 1.0))
+                path = np.sum(B * J, axis=0)
+                if albedo > 0:
+                    e0 = _direct_ground_irradiance(atm, mc.mus_end, grid.order)
+                    path += np.where(mc.ground[:, None], mc.t_end * albedo / np.pi * e0, 0.0)
+                L[i, j] = path.reshape(n_mu, n_phi, nwl)
+        self.W = field.phase_matrices()  # (nsc, ndir, ndir)
+        self.L = L  # field of the highest order computed so far
+        self.S: list[np.ndarray] = []  # S^1, S^2, ...
+
+    def _source(self, L):
+        f = self.field
+        n_r, n_s, n_mu, n_phi = f.shape
+        nsc, nwl = len(self.atm.scatterers), self.atm.n_wavelengths
         Lf = L.reshape(n_r, n_s, n_mu * n_phi, nwl)
-        S = np.einsum("iab,rsbw->rsaiw", W, Lf).reshape(field.shape + (nsc, nwl))
-        S_sum += S
-        if _order == orders - 1:
-            break
-        E = _ground_irradiance(field, L) if albedo > 0 else None
-        Lnew = np.zeros_like(L)
-        for (i, j), mc in marches.items():
-            path = _gather(field, mc, S)
-            if albedo > 0:
-                e = _interp_e(field, E, mc.mus_end)
-                path += np.where(mc.ground[:, None], mc.t_end * albedo / np.pi * e, 0.0)
-            Lnew[i, j] = path.reshape(n_mu, n_phi, nwl)
-        L = Lnew
-    return field, S_sum
+        return np.einsum("iab,rsbw->rsaiw", self.W, Lf).reshape(f.shape + (nsc, nwl))
+
+    def _next_field(self, S):
+        f = self.field
+        n_mu, n_phi = f.shape[2:]
+        E = _ground_irradiance(f, self.L) if self.albedo > 0 else None
+        Lnew = np.zeros_like(self.L)
+        for (i, j), mc in self.marches.items():
+            path = _gather(f, mc, S)
+            if self.albedo > 0:
+                e = _interp_e(f, E, mc.mus_end)
+                path += np.where(mc.ground[:, None], mc.t_end * self.albedo / np.pi * e, 0.0)
+            Lnew[i, j] = path.reshape(n_mu, n_phi, -1)
+        return Lnew
+
+    def source_sum(self, orders: int) -> np.ndarray:
+        """Σ_{k=1}^{orders-1} S^k."""
+        while len(self.S) < orders - 1:
+            if self.S:
+                self.L = self._next_field(self.S[-1])
+            self.S.append(self._source(self.L))
+        return np.sum(self.S[: orders - 1], axis=0)
 
 
 def _single_J(atm, r0, v, s, q):
@@ -323,15 +341,17 @@ def _direct_ground_irradiance(atm: qd.PreparedAtmosphere, mus: np.ndarray, q: in
 
 def _field_for(atm_obj, atm, grid, albedo, orders):
     try:
-        key = (atm_obj, grid, float(albedo), int(orders))
+        key = (atm_obj, grid, float(albedo))
         hash(key)
     except TypeError:  # unhashable custom atmosphere: no caching
-        return _build_field(atm, grid, albedo, orders)
+        st = _FieldState(atm, grid, albedo)
+        return st.field, st.source_sum(orders)
     if key not in _CACHE:
         if len(_CACHE) >= _CACHE_MAX:
             _CACHE.pop(next(iter(_CACHE)))
-        _CACHE[key] = _build_field(atm, grid, albedo, orders)
-    return _CACHE[key]
+        _CACHE[key] = _FieldState(atm, grid, albedo)
+    st = _CACHE[key]
+    return st.field, st.source_sum(orders)
 
 
 def multiple_scattering(
