@@ -1,0 +1,230 @@
+"""The ``atmoscatter`` command.
+
+Sub-commands
+------------
+``atmoscatter render [SCENE] -o sky.exr [--set key=value ...] [--explain] [--preview sky.png]``
+    Render one scene (a TOML/JSON file, or the documented default scene).
+``atmoscatter batch SCENES -o DIR [--set key=value ...] [--workers N] [--dask | --scheduler ADDRESS]``
+    Render many scenes (CSV table or TOML with ``[base]``, ``[[scene]]``, ``[sweep]``).
+``atmoscatter info FILE.exr [--json]``
+    Show the metadata of a sky map.
+``atmoscatter preview FILE.exr -o sky.png [--exposure X] [--tone T] [--alpha A]``
+    Write a tone-mapped PNG.
+``atmoscatter models``
+    List the sky models available in this installation.
+
+Errors are printed as one line (``atmoscatter: error: ...``) with exit status 2
+(1 when some scenes of a batch failed); ``--debug`` shows the traceback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+
+__all__ = ["main"]
+
+
+def _parser() -> argparse.ArgumentParser:
+    from . import __version__  # noqa: PLC0415
+
+    p = argparse.ArgumentParser(
+        prog="atmoscatter",
+        description="Sky colour and brightness from atmospheric light-scattering physics.",
+    )
+    p.add_argument("--version", action="version", version=f"atmoscatter {__version__}")
+    p.add_argument("--debug", action="store_true", help="show tracebacks on errors")
+    sub = p.add_subparsers(dest="command", metavar="COMMAND")
+
+    def common(sp):
+        sp.add_argument("--debug", action="store_true", default=argparse.SUPPRESS,
+                        help="show tracebacks on errors")
+
+    r = sub.add_parser("render", help="render one scene to an EXR sky map")
+    r.add_argument("scene", nargs="?", help="scene file (.toml or .json); default: the default scene")
+    r.add_argument("-o", "--output", help="output EXR file")
+    r.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                   help="override a scene field (repeatable)")
+    r.add_argument("--explain", action="store_true", help="print the plan (and render if -o is given)")
+    r.add_argument("--preview", metavar="PNG", help="also write a tone-mapped PNG preview")
+    r.add_argument("--workers", type=int, default=None, help="threads (default: cores)")
+    r.add_argument("--batch-size", type=int, default=None, help="directions per model call")
+    common(r)
+
+    b = sub.add_parser("batch", help="render many scenes (CSV/TOML table or sweep)")
+    b.add_argument("scenes", help="CSV (header: scene fields + name) or TOML batch file")
+    b.add_argument("-o", "--output", required=True, help="output directory")
+    b.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                   help="override a field in every scene (repeatable)")
+    b.add_argument("--workers", type=int, default=1, help="local processes (default 1)")
+    g = b.add_mutually_exclusive_group()
+    g.add_argument("--scheduler", metavar="ADDRESS", help="Dask scheduler address (tcp://host:8786)")
+    g.add_argument("--dask", action="store_true",
+                   help="start a local Dask cluster with --workers workers")
+    b.add_argument("--no-resume", action="store_true", help="re-render complete outputs too")
+    b.add_argument("--quiet", action="store_true", help="no progress lines")
+    common(b)
+
+    i = sub.add_parser("info", help="show the metadata of an EXR sky map")
+    i.add_argument("file")
+    i.add_argument("--json", action="store_true", help="print the header as JSON")
+    common(i)
+
+    v = sub.add_parser("preview", help="write a tone-mapped PNG of an EXR sky map")
+    v.add_argument("file")
+    v.add_argument("-o", "--output", required=True, help="output PNG file")
+    v.add_argument("--exposure", type=float, default=None, help="[m^2/cd]; default automatic")
+    v.add_argument("--tone", choices=["exponential", "reinhard", "clip"], default=None)
+    v.add_argument("--alpha", choices=["none", "mask", "sky"], default="none",
+                   help="PNG alpha: none, the map's mask, or seed 002's (r+g+b)^transparency")
+    v.add_argument("--transparency", type=float, default=0.5)
+    common(v)
+
+    sub.add_parser("models", help="list the available sky models")
+    return p
+
+
+def _scene_from_args(args):
+    from .scene import load_scene  # noqa: PLC0415
+
+    return load_scene(args.scene, overrides=args.set)
+
+
+def _cmd_render(args, out) -> int:
+    from .exr import write_exr  # noqa: PLC0415
+    from .preview import write_preview  # noqa: PLC0415
+    from .render import render  # noqa: PLC0415
+    from .scene import plan  # noqa: PLC0415
+
+    scene = _scene_from_args(args)
+    if args.explain:
+        print(plan(scene, batch_size=args.batch_size).explain(), file=out)
+        if not args.output:
+            return 0
+    if not args.output:
+        raise ValueError("render needs an output file: -o sky.exr (or --explain to only plan)")
+    t0 = time.perf_counter()
+    img = render(scene, workers=args.workers, batch_size=args.batch_size)
+    write_exr(args.output, img)
+    print(f"wrote {args.output} ({scene.projection} {'x'.join(map(str, img.shape))}, "
+          f"model {scene.model}, {time.perf_counter() - t0:.2f} s)", file=out)
+    if args.preview:
+        write_preview(img, args.preview)
+        print(f"wrote {args.preview}", file=out)
+    return 0
+
+
+def _cmd_batch(args, out) -> int:
+    from .batch import load_batch, run_batch  # noqa: PLC0415
+
+    overrides = {}
+    for item in args.set:
+        if "=" not in item:
+            raise ValueError(f"--set expects key=value, got {item!r}")
+        k, v = item.split("=", 1)
+        overrides[k.strip()] = v.strip()
+    items = load_batch(args.scenes, overrides=overrides)
+    if args.workers < 1:
+        raise ValueError(f"--workers must be >= 1, got {args.workers}")
+    client = None
+    cluster = None
+    if args.dask:
+        try:
+            from dask.distributed import Client, LocalCluster  # noqa: PLC0415
+        except ImportError as exc:
+            raise ImportError("--dask needs the optional extra: pip install 'atmoscatter[dask]'") from exc
+        cluster = LocalCluster(n_workers=args.workers, threads_per_worker=1)
+        client = Client(cluster)
+    try:
+        summary = run_batch(items, args.output, workers=args.workers, client=client,
+                            scheduler=args.scheduler, resume=not args.no_resume,
+                            progress=not args.quiet)
+    finally:
+        if client is not None:
+            client.close()
+            cluster.close()
+    print(summary.text(), file=out)
+    return 0 if summary.ok else 1
+
+
+def _fmt_header_value(v):
+    if isinstance(v, tuple) and len(v) == 2 and hasattr(v[0], "tolist"):
+        return f"{v[0].tolist()} - {v[1].tolist()}"
+    return str(v)
+
+
+def _cmd_info(args, out) -> int:
+    from .exr import read_exr  # noqa: PLC0415
+    from .scene import Scene  # noqa: PLC0415
+
+    img = read_exr(args.file)
+    hdr = img.header
+    if args.json:
+        print(json.dumps({k: (v if isinstance(v, str) else _fmt_header_value(v))
+                          for k, v in sorted(hdr.items())}, indent=1), file=out)
+        return 0
+    print(f"{args.file}", file=out)
+    print("channels:", file=out)
+    for name, arr in sorted(img.channels.items()):
+        print(f"  {name:<24} {arr.dtype}  {'x'.join(map(str, arr.shape))}", file=out)
+    fields = set(Scene.field_names())
+    print("scene:", file=out)
+    for k in Scene.field_names():
+        if k in hdr:
+            print(f"  {k:<18} = {hdr[k]}", file=out)
+    print("header:", file=out)
+    for k, v in sorted(hdr.items()):
+        if k in fields or k in ("atmoscatter:plan", "channels"):
+            continue
+        print(f"  {k:<28} {_fmt_header_value(v)}", file=out)
+    if img.plan is not None:
+        print("plan:", file=out)
+        for k, v in sorted(img.plan.items()):
+            print(f"  {k:<20} {v}", file=out)
+    return 0
+
+
+def _cmd_preview(args, out) -> int:
+    from .preview import write_preview  # noqa: PLC0415
+
+    write_preview(args.file, args.output, exposure=args.exposure, tone=args.tone,
+                  alpha=args.alpha, transparency=args.transparency)
+    print(f"wrote {args.output}", file=out)
+    return 0
+
+
+def _cmd_models(args, out) -> int:
+    from .models import MODELS  # noqa: PLC0415
+
+    for name, a in sorted(MODELS.items()):
+        print(f"{name:<20} {a.description}", file=out)
+    return 0
+
+
+def main(argv=None) -> int:
+    """Entry point of the ``atmoscatter`` console script; returns the exit status."""
+    parser = _parser()
+    args = parser.parse_args(argv)
+    debug = bool(getattr(args, "debug", False))
+    if not args.command:
+        parser.print_help()
+        return 2
+    commands = {"render": _cmd_render, "batch": _cmd_batch, "info": _cmd_info,
+                "preview": _cmd_preview, "models": _cmd_models}
+    try:
+        return commands[args.command](args, sys.stdout)
+    except KeyboardInterrupt:
+        print("atmoscatter: interrupted", file=sys.stderr)
+        return 130
+    except Exception as exc:
+        if debug:
+            raise
+        msg = " ".join(str(exc).split()) or type(exc).__name__
+        print(f"atmoscatter: error: {msg}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

@@ -1,0 +1,272 @@
+"""OpenEXR sky maps: atomic writes with provenance, and reading them back.
+
+Public objects
+--------------
+:func:`write_exr`
+    Write a :class:`~atmoscatter.render.SkyImage` (half or float; RGB(A), XYZ,
+    luminance and spectral layers; ``envmap`` and ``chromaticities`` header
+    attributes; the scene, plan, model, package version and error estimate as
+    string attributes).  The write is atomic.
+:func:`read_exr`, :class:`ExrImage`
+    Read a sky map (any EXR) back: channels, header, and the scene it records.
+:func:`is_complete_exr`
+    Whether a file is a complete, readable EXR (batch resume uses it).
+:func:`atomic_write`
+    Context manager giving a temporary path that replaces the target only on success.
+
+Channel layout
+--------------
+* ``R``, ``G``, ``B`` (+ ``A``): linear RGB in the scene's colourspace [cd m⁻²];
+  alpha is 1 for evaluated sky and 0 for ground fill / outside a fisheye circle.
+* ``XYZ.X``, ``XYZ.Y``, ``XYZ.Z``: CIE XYZ [cd m⁻²] (``output = "xyz"``).
+* ``Y``: luminance only [cd m⁻²] (``output = "luminance"``; OpenEXR's
+  luminance-image convention).
+* ``S0.<λ>nm`` (λ written with a decimal comma, e.g. ``S0.550,000000nm``):
+  spectral radiance [W m⁻² sr⁻¹ nm⁻¹], the layout of Fichet, Pacanowski &
+  Wilkie (2021), "An OpenEXR layout for spectral images", JCGT 10(3).
+* ``dir.X``, ``dir.Y``, ``dir.Z`` (float, dome only): vertex directions in the
+  local frame (x = east, y = north, z = up); a dome is stored as a 1-row
+  image with one pixel per vertex.
+
+Lat-long and cube maps carry the standard ``envmap`` attribute; their pixel
+orientation is OpenEXR's with the environment frame x = west, y = up,
+z = north (see :mod:`atmoscatter.directions`).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import os
+import tempfile
+
+import numpy as np
+
+__all__ = ["write_exr", "read_exr", "ExrImage", "is_complete_exr", "atomic_write",
+           "spectral_channel_name"]
+
+
+def spectral_channel_name(wavelength: float) -> str:
+    """EXR channel name of spectral radiance at ``wavelength`` [nm] (Fichet et al. 2021)."""
+    return "S0." + f"{float(wavelength):.6f}".replace(".", ",") + "nm"
+
+
+@contextlib.contextmanager
+def atomic_write(path):
+    """Yield a temporary path next to ``path``; move it onto ``path`` only on success.
+
+    The temporary file lives in the target's directory (so ``os.replace`` is an
+    atomic rename on POSIX and Windows) and is removed if anything fails: an
+    interrupted write never leaves a truncated file under the final name, and
+    an existing file is only ever replaced by a complete one.
+    """
+    path = os.fspath(path)
+    directory = os.path.dirname(os.path.abspath(path))
+    os.makedirs(directory, exist_ok=True)
+    base = os.path.basename(path)
+    fd, tmp = tempfile.mkstemp(prefix=f".{base}.", suffix=".tmp", dir=directory)
+    os.close(fd)
+    try:
+        yield tmp
+        os.replace(tmp, path)
+    except BaseException:
+        with contextlib.suppress(FileNotFoundError):
+            os.remove(tmp)
+        raise
+
+
+def _chromaticities(colourspace: str):
+    import colour  # noqa: PLC0415
+
+    cs = colour.RGB_COLOURSPACES[colourspace]
+    p = np.asarray(cs.primaries, dtype=float)
+    w = np.asarray(cs.whitepoint, dtype=float)
+    return (p[0, 0], p[0, 1], p[1, 0], p[1, 1], p[2, 0], p[2, 1], w[0], w[1])
+
+
+def write_exr(path, image, *, precision: str | None = None, compression: str = "zip") -> str:
+    """Write ``image`` (a :class:`~atmoscatter.render.SkyImage`) to ``path`` atomically.
+
+    Parameters
+    ----------
+    path : str or path-like
+        Output file (directories are created).
+    image : SkyImage
+        The rendered sky.
+    precision : {"half", "float"}, optional
+        Pixel type of the radiance channels (default: ``image.scene.precision``).
+        Half floats hold up to 65504: brighter values (the sun disc) saturate.
+    compression : {"zip", "piz", "none"}
+        OpenEXR compression.
+
+    Returns
+    -------
+    str
+        The path written.
+    """
+    import OpenEXR  # noqa: PLC0415
+
+    prec = image.scene.precision if precision is None else precision
+    if prec not in ("half", "float"):
+        raise ValueError(f"precision={prec!r} is not valid; choose one of ['float', 'half']")
+    comp = {"zip": OpenEXR.ZIP_COMPRESSION, "piz": OpenEXR.PIZ_COMPRESSION,
+            "none": OpenEXR.NO_COMPRESSION}
+    if compression not in comp:
+        raise ValueError(f"compression={compression!r} is not valid; choose one of {sorted(comp)}")
+    dtype = np.float16 if prec == "half" else np.float32
+
+    dome = len(image.shape) == 1  # a mesh / direction list: one row, one pixel each
+    if len(image.shape) > 2:
+        raise ValueError(f"cannot write layers of shape {image.shape} as an image")
+
+    def as_image(a):
+        a = np.asarray(a)
+        if dome:  # one row, one pixel per vertex
+            a = a.reshape((1,) + a.shape)
+        return np.ascontiguousarray(a)
+
+    def conv(a):
+        a = np.asarray(a, dtype=np.float32)
+        if dtype is np.float16:
+            a = np.minimum(a, np.float32(65504.0))
+        return as_image(a.astype(dtype))
+
+    channels = {}
+    if image.rgb is not None:
+        for i, c in enumerate("RGB"):
+            channels[c] = conv(image.rgb[..., i])
+        if image.scene.alpha:
+            channels["A"] = conv(image.alpha)
+    if image.xyz is not None:
+        for i, c in enumerate("XYZ"):
+            channels[f"XYZ.{c}"] = conv(image.xyz[..., i])
+    if image.luminance_only is not None:
+        channels["Y"] = conv(image.luminance_only)
+        if image.scene.alpha:
+            channels["A"] = conv(image.alpha)
+    if image.spectral is not None:
+        for i, wl in enumerate(image.wavelengths):
+            channels[spectral_channel_name(wl)] = conv(image.spectral[..., i])
+    if dome:
+        d = image.directions.reshape(-1, 3)
+        for i, c in enumerate("XYZ"):
+            channels[f"dir.{c}"] = as_image(d[:, i].astype(np.float32))
+
+    header = {
+        "compression": comp[compression],
+        "type": OpenEXR.scanlineimage,
+    }
+    if image.projection == "latlong":
+        header["envmap"] = OpenEXR.ENVMAP_LATLONG
+    elif image.projection == "cubemap":
+        header["envmap"] = OpenEXR.ENVMAP_CUBE
+    if image.rgb is not None:
+        header["chromaticities"] = tuple(float(v) for v in _chromaticities(image.scene.colourspace))
+        header["whiteLuminance"] = 1.0  # RGB (1, 1, 1) has a luminance of 1 cd m^-2
+    for k, v in image.metadata.items():
+        header[str(k)] = str(v)
+
+    path = os.fspath(path)
+    with atomic_write(path) as tmp:
+        with OpenEXR.File(header, channels) as f:
+            f.write(tmp)
+    return path
+
+
+class ExrImage:
+    """An EXR file read back: ``channels`` (name → array) and ``header`` (name → value)."""
+
+    def __init__(self, channels: dict, header: dict):
+        self.channels = channels
+        self.header = header
+
+    @property
+    def metadata(self) -> dict[str, str]:
+        """The string attributes of the header."""
+        return {k: v for k, v in self.header.items() if isinstance(v, str)}
+
+    def _stack(self, names):
+        if all(n in self.channels for n in names):
+            return np.stack([self.channels[n] for n in names], axis=-1)
+        return None
+
+    @property
+    def rgb(self):
+        """``(..., 3)`` RGB, or None."""
+        return self._stack(["R", "G", "B"])
+
+    @property
+    def xyz(self):
+        """``(..., 3)`` XYZ, or None."""
+        return self._stack(["XYZ.X", "XYZ.Y", "XYZ.Z"])
+
+    @property
+    def alpha(self):
+        return self.channels.get("A")
+
+    @property
+    def luminance(self):
+        return self.channels.get("Y")
+
+    @property
+    def spectral(self):
+        """``(wavelengths [nm], radiance (..., n))`` or None."""
+        names = [n for n in self.channels if n.startswith("S0.") and n.endswith("nm")]
+        if not names:
+            return None
+        wl = np.array([float(n[3:-2].replace(",", ".")) for n in names])
+        order = np.argsort(wl)
+        return wl[order], np.stack([self.channels[names[i]] for i in order], axis=-1)
+
+    @property
+    def plan(self) -> dict | None:
+        text = self.header.get("atmoscatter:plan")
+        return json.loads(text) if isinstance(text, str) else None
+
+    def scene(self):
+        """The :class:`~atmoscatter.scene.Scene` recorded in the header."""
+        from .scene import Scene  # noqa: PLC0415
+
+        data = {k: self.header[k] for k in Scene.field_names()
+                if isinstance(self.header.get(k), str)}
+        if not data:
+            raise ValueError("this EXR file records no atmoscatter scene")
+        return Scene.from_dict(data)
+
+
+def read_exr(path) -> ExrImage:
+    """Read an EXR file: all channels (as arrays) and the header."""
+    import OpenEXR  # noqa: PLC0415
+
+    path = os.fspath(path)
+    if not os.path.exists(path):
+        raise ValueError(f"{path!r} does not exist")
+    try:
+        with OpenEXR.File(path) as f:
+            header = dict(f.header())
+            chans = {}
+            for name, ch in f.channels().items():
+                px = np.asarray(ch.pixels)
+                if px.ndim == 3:  # grouped RGB/RGBA
+                    parts = [name[i] for i in range(len(name))] if name in ("RGB", "RGBA") else []
+                    for i, c in enumerate(parts):
+                        chans[c] = px[..., i]
+                    if parts:
+                        continue
+                chans[name] = px
+    except Exception as exc:  # OpenEXR raises various types for broken files
+        raise ValueError(f"{path!r} is not a readable OpenEXR file ({exc})") from None
+    return ExrImage(chans, header)
+
+
+def is_complete_exr(path) -> bool:
+    """True if ``path`` is an EXR whose header and every pixel can be read."""
+    try:
+        import OpenEXR  # noqa: PLC0415
+
+        if not os.path.isfile(path) or not OpenEXR.isOpenExrFile(os.fspath(path)):
+            return False
+        img = read_exr(path)
+        return bool(img.channels)
+    except Exception:
+        return False

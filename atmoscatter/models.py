@@ -1,0 +1,457 @@
+"""Sky-model adapters: every model rendered in one set of absolute units.
+
+Public objects
+--------------
+:class:`ModelAdapter`
+    What the renderer needs to know about a model (its capabilities, its cost,
+    its error estimate) and how to evaluate it for a batch of directions.
+:data:`MODELS`
+    Registry name → adapter of the models available in this installation.
+    A model whose implementation is not present is simply not registered.
+:func:`get_model`, :func:`register_model`, :func:`unregister_model`
+    Look up and extend the registry (tests inject cheap or spying models).
+:func:`physical_adapter`
+    Adapter of a numerical model returning radiance per unit solar irradiance
+    (``single_scattering``, ``multiple_scattering``).
+
+Units
+-----
+Every adapter returns **CIE XYZ in cd m⁻²** (``quantity = "XYZ"``), or the
+luminance **Y in cd m⁻²** alone (``quantity = "Y"``), or additionally the
+spectral radiance [W m⁻² sr⁻¹ nm⁻¹] (``quantity = "spectral"``), so that two
+models of one scene can be compared pixel by pixel.
+
+* Photometric models (Preetham, CIE) return luminance/XYZ directly.  The CIE
+  overcast and clear skies are luminance distributions only: their colour is
+  taken as CIE D65 (:data:`CIE_SKY_CHROMATICITY`), so R = G = B in sRGB.
+* Preetham asked for luminance only evaluates the Y row of the fit alone
+  (``Y_z F_Y(θ, γ)/F_Y(0, θ_s)``), not the chromaticity distributions.
+* Physical models return radiance per unit extraterrestrial irradiance
+  [sr⁻¹]; the adapter multiplies by the ASTM G-173 ETR spectrum
+  (:func:`atmoscatter.extraterrestrial_irradiance`, band-averaged over each
+  sample's interval and scaled by ``1/d²`` for the Earth–Sun distance ``d`` of
+  the scene's date) and integrates with the CIE 1931 2° CMFs
+  (:func:`atmoscatter.cmf_weights`, K_m = 683 lm W⁻¹).
+* RGB-sampled atmospheres (three wavelengths, 680/550/440 nm by default) are
+  turned into a spectrum by interpolating the per-irradiance radiance ``f(λ)``
+  as a power law between the samples (piecewise linear in ``log f`` against
+  ``log λ``, extrapolated with the end slopes to 380–780 nm, 5 nm grid) — exact
+  for a pure ``λ⁻⁴`` Rayleigh sky.  The output R, G, B are the colourspace's
+  RGB of that XYZ: "R" is *not* the 680 nm radiance.
+"""
+
+from __future__ import annotations
+
+import importlib
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+__all__ = [
+    "ModelAdapter",
+    "MODELS",
+    "get_model",
+    "register_model",
+    "unregister_model",
+    "physical_adapter",
+    "rgb_sampling_matrix",
+    "CIE_SKY_CHROMATICITY",
+]
+
+
+@dataclass(frozen=True)
+class ModelAdapter:
+    """A sky model as the renderer sees it.
+
+    Parameters
+    ----------
+    name : str
+        Registry key (the scene's ``model``).
+    description : str
+        One line for ``--explain`` and the docs.
+    prepare : callable
+        ``prepare(scene, plan) -> evaluate``; ``evaluate(directions)`` takes unit
+        directions (n, 3) [local frame] and returns a dict with ``"XYZ"`` (n, 3)
+        or ``"Y"`` (n,) [cd m⁻²] (per ``plan.quantity``) and, for
+        ``quantity = "spectral"``, ``"spectral"`` (n, n_wl) [W m⁻² sr⁻¹ nm⁻¹].
+        Setup that does not depend on the directions happens once in ``prepare``.
+    spectral : bool
+        The model computes spectra (can output spectral layers).
+    separate_haze : bool
+        The model has a haze/aerosol term that can be left out at turbidity 1.
+    ground_only : bool
+        Defined only for the upper hemisphere of a ground observer.
+    horizontally_uniform : bool
+        The sky depends on the direction only through its zenith angle and its
+        azimuth relative to the sun (mirror symmetry about the solar vertical).
+    cost_per_direction : float
+        Rough evaluation cost [s] per direction (decides whether finding mirror
+        pairs pays off).
+    wavelengths : callable
+        ``wavelengths(scene) -> tuple`` [nm] evaluated by a spectral model.
+    error_estimate : str
+        Stated accuracy of the model (recorded in the EXR header).
+    """
+
+    name: str
+    description: str
+    prepare: Callable
+    spectral: bool = False
+    separate_haze: bool = False
+    ground_only: bool = True
+    horizontally_uniform: bool = True
+    cost_per_direction: float = 2e-7
+    wavelengths: Callable = field(default=lambda scene: ())
+    error_estimate: str = "not stated"
+
+
+MODELS: dict[str, ModelAdapter] = {}
+
+
+def register_model(adapter: ModelAdapter, *, replace: bool = False) -> None:
+    """Add ``adapter`` to :data:`MODELS` (``replace=True`` to overwrite a name)."""
+    if not isinstance(adapter, ModelAdapter):
+        raise TypeError(f"adapter must be a ModelAdapter, got {type(adapter).__name__}")
+    if adapter.name in MODELS and not replace:
+        raise ValueError(f"model {adapter.name!r} is already registered")
+    MODELS[adapter.name] = adapter
+
+
+def unregister_model(name: str) -> None:
+    """Remove ``name`` from :data:`MODELS` (no error if absent)."""
+    MODELS.pop(name, None)
+
+
+def get_model(name: str) -> ModelAdapter:
+    """The adapter registered as ``name``; ValueError listing the valid names."""
+    if name not in MODELS:
+        raise ValueError(f"model={name!r} is not valid; choose one of {sorted(MODELS)}")
+    return MODELS[name]
+
+
+def _lookup(name: str):
+    """Find a public function of the package (flat API first, then known modules)."""
+    pkg = importlib.import_module("atmoscatter")
+    fn = getattr(pkg, name, None)
+    if fn is not None:
+        return fn
+    for mod in ("sky", "sky.preetham", "sky.perez", "sky.cie", "sky.aerial", "sky.single",
+                "sky.multiple", "sun"):
+        try:
+            m = importlib.import_module(f"atmoscatter.{mod}")
+        except ImportError:
+            continue
+        fn = getattr(m, name, None)
+        if fn is not None:
+            return fn
+    return None
+
+
+# ----------------------------------------------------------------------------
+# Preetham (analytic)
+# ----------------------------------------------------------------------------
+def _preetham_luminance_function(scene, plan):
+    """Y only: ``Y = Y_z F_Y(θ, γ)/F_Y(0, θ_s)`` from the Y row of the Preetham fit.
+
+    Uses the public pieces of :mod:`atmoscatter.sky.preetham` (coefficients,
+    zenith value) and :func:`atmoscatter.perez`; the x and y distributions are
+    never evaluated.  Returns None if those pieces are not available.
+    """
+    coef_fn = _lookup("preetham_distribution_coefficients")
+    zen_fn = _lookup("preetham_zenith")
+    perez = _lookup("perez")
+    if coef_fn is None or zen_fn is None or perez is None:
+        return None
+    sun = plan.sun_direction
+    theta_s = float(plan.sun_zenith)
+    if sun[2] < 0.0:  # the Preetham policy: dark sky for a sun below the horizon
+        return lambda d: {"Y": np.zeros(len(d))}
+    A, B, C, D, E = np.asarray(coef_fn(scene.turbidity), dtype=float)[0]
+    y_zenith = float(np.asarray(zen_fn(scene.turbidity, theta_s))[..., 0])
+    norm = float(perez(0.0, theta_s, A, B, C, D, E))
+
+    def evaluate(directions):
+        d = np.asarray(directions, dtype=float)
+        theta = np.arccos(np.clip(d[:, 2], 0.0, 1.0))
+        # γ = 2 atan2(|v − s|, |v + s|): accurate at the sun and the anti-solar point
+        gamma = 2.0 * np.arctan2(np.linalg.norm(d - sun, axis=-1), np.linalg.norm(d + sun, axis=-1))
+        return {"Y": y_zenith * np.asarray(perez(theta, gamma, A, B, C, D, E)) / norm}
+
+    return evaluate
+
+
+def _prepare_preetham(scene, plan):
+    if plan.quantity == "Y":
+        lum = _preetham_luminance_function(scene, plan)
+        if lum is not None:
+            return lum
+    fn = _lookup("preetham_sky")
+    sun = plan.sun_direction
+    turbidity = scene.turbidity
+
+    def evaluate(directions):
+        xyz = np.asarray(fn(directions, sun, turbidity), dtype=float)
+        if plan.quantity == "Y":
+            return {"Y": xyz[..., 1]}
+        return {"XYZ": xyz}
+
+    return evaluate
+
+
+# ----------------------------------------------------------------------------
+# CIE overcast and clear skies (luminance distributions)
+# ----------------------------------------------------------------------------
+#: Chromaticity given to the luminance-only CIE skies: CIE D65 (x, y).
+CIE_SKY_CHROMATICITY = (0.3127, 0.3290)
+
+
+def _with_d65(y, quantity):
+    if quantity == "Y":
+        return {"Y": y}
+    x, yy = CIE_SKY_CHROMATICITY
+    return {"XYZ": np.stack([x / yy * y, y, (1.0 - x - yy) / yy * y], axis=-1)}
+
+
+def _prepare_cie_overcast(scene, plan):
+    fn = _lookup("cie_overcast_sky")
+    zl = _lookup("cie_zenith_luminance")
+    y_zenith = float(zl(plan.sun_zenith, method="krochmann"))
+
+    def evaluate(directions):
+        return _with_d65(np.asarray(fn(directions, y_zenith), dtype=float), plan.quantity)
+
+    return evaluate
+
+
+def _prepare_cie_clear(scene, plan):
+    fn = _lookup("cie_clear_sky")
+    zl = _lookup("cie_zenith_luminance")
+    sun = plan.sun_direction
+    y_zenith = float(zl(plan.sun_zenith, method="preetham", turbidity=scene.turbidity))
+
+    def evaluate(directions):
+        return _with_d65(np.asarray(fn(directions, sun, y_zenith), dtype=float), plan.quantity)
+
+    return evaluate
+
+
+_CIE_OVERCAST = ModelAdapter(
+    name="cie_overcast",
+    description="CIE standard overcast sky (Moon & Spencer 1942), zenith luminance after "
+    "Krochmann (1963); colour: D65 chromaticity",
+    prepare=_prepare_cie_overcast,
+    cost_per_direction=5e-8,
+    error_estimate="CIE standard distribution (exact by definition); absolute level from "
+    "Krochmann's zenith-luminance fit; chromaticity assumed D65",
+)
+
+_CIE_CLEAR = ModelAdapter(
+    name="cie_clear",
+    description="CIE clear sky (Kittler), zenith luminance from Preetham et al. (1999); "
+    "colour: D65 chromaticity",
+    prepare=_prepare_cie_clear,
+    cost_per_direction=2e-7,
+    error_estimate="CIE standard distribution; absolute level from the Preetham zenith fit "
+    "(turbidity 2-10); chromaticity assumed D65",
+)
+
+
+_PREETHAM = ModelAdapter(
+    name="preetham",
+    description="Preetham, Shirley & Smits (1999) analytic clear sky (Perez fits of Y, x, y)",
+    prepare=_prepare_preetham,
+    spectral=False,
+    separate_haze=False,
+    ground_only=True,
+    cost_per_direction=3e-7,
+    error_estimate=(
+        "Preetham 1999 fit to Nishita-type simulations; the authors do not state a bound; "
+        "valid for turbidity 2-10 and the sun above the horizon"
+    ),
+)
+
+
+# ----------------------------------------------------------------------------
+# physical models: radiance per unit solar irradiance → absolute units
+# ----------------------------------------------------------------------------
+#: Fine grid [nm] on which RGB samples are expanded to a spectrum.
+FINE_GRID = np.arange(380.0, 780.0 + 0.5, 5.0)
+
+
+def rgb_sampling_matrix(sample_wavelengths, grid=FINE_GRID) -> np.ndarray:
+    """Matrix ``A`` (n_samples, n_grid): ``log f(grid) = log f(samples) @ A``.
+
+    Piecewise-linear interpolation in ``log λ`` between the (sorted) samples,
+    linear extrapolation with the end segments' slopes: a power law
+    ``f ∝ λ^p`` is reproduced exactly on the whole grid.
+    """
+    lam = np.log(np.asarray(sample_wavelengths, dtype=float))
+    order = np.argsort(lam)
+    ls = lam[order]
+    if ls.size < 2:
+        raise ValueError("RGB sampling needs at least 2 sample wavelengths")
+    x = np.log(np.asarray(grid, dtype=float))
+    seg = np.clip(np.searchsorted(ls, x) - 1, 0, ls.size - 2)
+    t = (x - ls[seg]) / (ls[seg + 1] - ls[seg])
+    A_sorted = np.zeros((ls.size, x.size))
+    cols = np.arange(x.size)
+    A_sorted[seg, cols] = 1.0 - t
+    A_sorted[seg + 1, cols] = t
+    A = np.empty_like(A_sorted)
+    A[order] = A_sorted
+    return A
+
+
+def _band_etr(wavelengths, distance_au):
+    """ETR [W m⁻² nm⁻¹] averaged over each sample's interval (midpoints to neighbours)."""
+    from .solar import extraterrestrial_irradiance, solar_spectrum_table  # noqa: PLC0415
+
+    wl = np.asarray(wavelengths, dtype=float)
+    tw, te = solar_spectrum_table()
+    if wl.size == 1:
+        return extraterrestrial_irradiance(wl, distance_au=distance_au)
+    srt = np.sort(wl)
+    edges = np.concatenate([[srt[0] - 0.5 * (srt[1] - srt[0])], 0.5 * (srt[1:] + srt[:-1]),
+                            [srt[-1] + 0.5 * (srt[-1] - srt[-2])]])
+    out = np.empty(srt.size)
+    for i in range(srt.size):
+        a, b = edges[i], edges[i + 1]
+        inside = (tw > a) & (tw < b)
+        x = np.concatenate([[a], tw[inside], [b]])
+        y = np.interp(x, tw, te)
+        out[i] = np.trapezoid(y, x) / (b - a)
+    res = np.empty_like(out)
+    res[np.searchsorted(srt, wl)] = out
+    return res / distance_au**2
+
+
+def _build_atmosphere(scene, wavelengths):
+    from . import presets  # noqa: PLC0415
+
+    wl = tuple(float(w) for w in wavelengths)
+    if scene.atmosphere in ("earth", "earth_no_ozone"):
+        atm = presets.earth_turbidity_atmosphere(
+            scene.turbidity, wl, ozone=scene.atmosphere == "earth")
+    elif scene.atmosphere == "mars":
+        atm = presets.mars_atmosphere(wl)
+    else:
+        atm = presets.keller_bohn_atmosphere(wl)
+    # leave out constituents that neither scatter nor absorb (no haze at T = 1)
+    keep = tuple(c for c in atm.constituents if not c.is_empty)
+    if len(keep) != len(atm.constituents):
+        import dataclasses  # noqa: PLC0415
+
+        atm = dataclasses.replace(atm, constituents=keep)
+    return atm
+
+
+def _physical_wavelengths(scene):
+    if scene.sampling == "spectral" or scene.output == "spectral":
+        step = scene.wavelength_step
+        n = int(math.floor((780.0 - 380.0) / step + 1e-9)) + 1
+        return tuple(380.0 + step * np.arange(n))
+    if scene.atmosphere == "keller_bohn":
+        return (650.0, 570.0, 475.0)
+    return (680.0, 550.0, 440.0)
+
+
+def _make_physical_prepare(function_name):
+    def prepare(scene, plan):
+        from .colour import K_M, cmf_weights  # noqa: PLC0415
+
+        fn = _lookup(function_name)
+        if fn is None:
+            raise ValueError(f"model {function_name!r} is not available in this installation")
+        wl = np.asarray(plan.wavelengths, dtype=float)
+        atm = _build_atmosphere(scene, wl)
+        sun = plan.sun_direction
+        kwargs = {"altitude": scene.altitude}
+        if function_name == "multiple_scattering":
+            kwargs.update(orders=scene.orders, ground_albedo=scene.ground_albedo)
+        elif scene.method is not None:
+            kwargs["method"] = scene.method
+        rgb_sampled = not (scene.sampling == "spectral" or scene.output == "spectral")
+        if rgb_sampled:
+            A = rgb_sampling_matrix(wl)
+            grid = FINE_GRID
+            E = _band_etr(grid, plan.distance_au)
+            W = cmf_weights(grid) * (K_M * E)[:, None]  # XYZ = f_fine @ W
+        else:
+            order = np.argsort(wl)
+            E = _band_etr(wl, plan.distance_au)
+            W = np.empty((wl.size, 3))
+            W[order] = cmf_weights(wl[order])
+            W *= (K_M * E)[:, None]
+        Wq = W[:, 1:2] if plan.quantity == "Y" else W
+
+        def evaluate(directions):
+            f = np.asarray(fn(atm, directions, sun, **kwargs), dtype=float)
+            f = np.maximum(f, 0.0)
+            out = {}
+            if rgb_sampled:
+                logf = np.log(np.maximum(f, 1e-300))
+                lo = logf.min(axis=-1, keepdims=True) - 20.0
+                hi = logf.max(axis=-1, keepdims=True) + 3.0
+                fine = np.exp(np.clip(logf @ A, lo, hi))
+                fine[np.all(f == 0.0, axis=-1)] = 0.0
+                res = fine @ Wq
+            else:
+                res = f @ Wq
+                if plan.quantity == "spectral":
+                    out["spectral"] = f * E
+            if plan.quantity == "Y":
+                out["Y"] = res[..., 0]
+            else:
+                out["XYZ"] = res
+            return out
+
+        evaluate.atmosphere = atm
+        return evaluate
+
+    return prepare
+
+
+def physical_adapter(function_name: str) -> ModelAdapter:
+    """Adapter of ``single_scattering`` or ``multiple_scattering`` (see module notes)."""
+    if function_name == "single_scattering":
+        desc = "numerical single scattering on a spherical planet (Nishita 1993 / seed 002)"
+        err = "quadrature error <= 1e-3 relative (default method); single scattering only"
+        cost = 3e-5
+    elif function_name == "multiple_scattering":
+        desc = "numerical multiple scattering (seed 004 orders of scattering)"
+        err = "stated by atmoscatter.multiple_scattering for the chosen orders"
+        cost = 1e-4
+    else:
+        raise ValueError(
+            f"function_name={function_name!r} is not valid; choose one of "
+            "['multiple_scattering', 'single_scattering']"
+        )
+    return ModelAdapter(
+        name=function_name,
+        description=desc,
+        prepare=_make_physical_prepare(function_name),
+        spectral=True,
+        separate_haze=True,
+        ground_only=False,
+        horizontally_uniform=True,
+        cost_per_direction=cost,
+        wavelengths=_physical_wavelengths,
+        error_estimate=err,
+    )
+
+
+def _register_available():
+    if _lookup("preetham_sky") is not None:
+        register_model(_PREETHAM, replace=True)
+    if _lookup("cie_overcast_sky") is not None and _lookup("cie_zenith_luminance") is not None:
+        register_model(_CIE_OVERCAST, replace=True)
+    if _lookup("cie_clear_sky") is not None and _lookup("cie_zenith_luminance") is not None:
+        register_model(_CIE_CLEAR, replace=True)
+    for name in ("single_scattering", "multiple_scattering"):
+        if _lookup(name) is not None:
+            register_model(physical_adapter(name), replace=True)
+
+
+_register_available()

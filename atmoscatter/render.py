@@ -1,0 +1,442 @@
+"""The per-vertex batch evaluator: Scene → SkyImage.
+
+Public objects
+--------------
+:func:`render`
+    Evaluate a scene's sky over its direction set (lat-long, cube map,
+    fisheye or sky-dome mesh) in bounded-memory batches spread over threads,
+    following :func:`atmoscatter.plan` exactly.
+:func:`render_batches`
+    The same evaluation as a generator of ``(start, stop, values)`` batches,
+    for streaming very large maps without holding them.
+:class:`SkyImage`
+    Directions, values (linear RGB, and optionally XYZ, luminance, spectral
+    radiance, alpha) and metadata; converts to numpy and xarray.
+:func:`sun_disc_radiance`
+    Transmitted, limb-darkened radiance of the solar disc (XYZ [cd m⁻²]).
+
+Memory
+------
+Directions are generated per batch from their indices (never all at once);
+each batch holds ``batch_size`` directions and its model temporaries, and at
+most ``workers`` batches are in flight.  Peak memory is therefore the output
+arrays (float32) plus ``O(workers × batch_size)`` regardless of resolution.
+NumPy releases the GIL inside its kernels, so threads use the cores without
+copying results between processes.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import threading
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from . import __version__
+from .directions import ArrayDirections, DirectionSet, direction_set, mirror_pairs
+from .models import get_model
+from .scene import Plan, Scene
+from .scene import plan as make_plan
+
+__all__ = ["SkyImage", "render", "render_batches", "sun_disc_radiance", "LIMB_DARKENING_U"]
+
+#: Linear limb-darkening coefficient u in ``I(μ)/I(1) = 1 − u (1 − μ)``: the
+#: Eddington approximation for a grey atmosphere, ``I(μ) ∝ (2 + 3μ)/5`` (e.g.
+#: Mihalas 1978, *Stellar Atmospheres*, §3-3), u = 0.6 at all wavelengths.  The
+#: observed solar value at 550 nm is close to it (Neckel & Labs 1994).
+LIMB_DARKENING_U = 0.6
+
+
+@dataclass
+class SkyImage:
+    """A rendered sky.
+
+    Attributes
+    ----------
+    scene : Scene
+    plan : Plan
+    directions_set : DirectionSet
+        Where each pixel/vertex looks (see :attr:`directions`).
+    rgb : ndarray or None
+        Linear RGB in ``scene.colourspace`` [cd m⁻²], shape ``shape + (3,)``.
+    xyz : ndarray or None
+        CIE XYZ [cd m⁻²] when ``output`` is ``xyz``.
+    luminance_only : ndarray or None
+        Y [cd m⁻²] when ``output`` is ``luminance``.
+    spectral : ndarray or None
+        Spectral radiance [W m⁻² sr⁻¹ nm⁻¹] at :attr:`wavelengths`.
+    alpha : ndarray
+        1 where the sky was evaluated, 0 for ground fill and outside the map.
+    metadata : dict of str
+        Provenance written to the EXR header.
+    """
+
+    scene: Scene
+    plan: Plan
+    directions_set: DirectionSet
+    rgb: np.ndarray | None = None
+    xyz: np.ndarray | None = None
+    luminance_only: np.ndarray | None = None
+    spectral: np.ndarray | None = None
+    wavelengths: np.ndarray | None = None
+    alpha: np.ndarray | None = None
+    metadata: dict = field(default_factory=dict)
+
+    @property
+    def shape(self) -> tuple:
+        """Image shape (rows, columns), or (vertices,) for a dome."""
+        return self.directions_set.shape
+
+    @property
+    def projection(self) -> str:
+        return self.directions_set.kind
+
+    @property
+    def directions(self) -> np.ndarray:
+        """Unit view directions, shape ``shape + (3,)`` (computed on demand)."""
+        return self.directions_set.all_directions()
+
+    @property
+    def faces(self):
+        """Triangles (m, 3) of a dome mesh, else None."""
+        return getattr(self.directions_set, "faces", None)
+
+    @property
+    def luminance(self) -> np.ndarray:
+        """Luminance Y [cd m⁻²], shape ``shape``."""
+        if self.luminance_only is not None:
+            return self.luminance_only
+        if self.xyz is not None:
+            return self.xyz[..., 1]
+        from .colour import XYZ_to_linear_rgb  # noqa: PLC0415
+
+        # exact inverse of the forward matrix used by render()
+        m = np.linalg.inv(XYZ_to_linear_rgb(np.eye(3), self.scene.colourspace))
+        return (self.rgb.astype(np.float64) @ m[:, 1]).astype(np.float32)
+
+    def to_numpy(self) -> dict:
+        """The layers as a dict of numpy arrays (``rgb``, ``xyz``, ``luminance``, …)."""
+        out = {"directions": self.directions, "luminance": self.luminance}
+        for name in ("rgb", "xyz", "spectral", "alpha", "wavelengths"):
+            v = getattr(self, name)
+            if v is not None:
+                out[name] = v
+        if self.faces is not None:
+            out["faces"] = self.faces
+        return out
+
+    def to_xarray(self):
+        """An :class:`xarray.Dataset` of the layers (needs xarray installed)."""
+        try:
+            import xarray as xr  # noqa: PLC0415
+        except ImportError as exc:  # pragma: no cover
+            raise ImportError("SkyImage.to_xarray needs xarray: pip install xarray") from exc
+        dims = ("row", "column") if len(self.shape) == 2 else ("vertex",)
+        data = {"luminance": (dims, self.luminance, {"units": "cd m-2"}),
+                "direction": (dims + ("xyz",), self.directions,
+                              {"frame": "x=east, y=north, z=up"})}
+        coords = {}
+        if self.rgb is not None:
+            data["rgb"] = (dims + ("channel",), self.rgb,
+                           {"units": "cd m-2", "colourspace": self.scene.colourspace})
+            coords["channel"] = ["R", "G", "B"]
+        if self.xyz is not None:
+            data["XYZ"] = (dims + ("cie",), self.xyz, {"units": "cd m-2"})
+            coords["cie"] = ["X", "Y", "Z"]
+        if self.spectral is not None:
+            data["spectral"] = (dims + ("wavelength",), self.spectral,
+                                {"units": "W m-2 sr-1 nm-1"})
+            coords["wavelength"] = self.wavelengths
+        if self.alpha is not None:
+            data["alpha"] = (dims, self.alpha)
+        return xr.Dataset(data, coords=coords, attrs=dict(self.metadata))
+
+
+# ----------------------------------------------------------------------------
+# sun disc
+# ----------------------------------------------------------------------------
+def _transmittance(scene: Scene, plan: Plan, wavelengths):
+    """Direct-beam transmittance toward the sun, from the observer (per wavelength)."""
+    from .geometry import ray_hits_ground  # noqa: PLC0415
+    from .models import _build_atmosphere  # noqa: PLC0415
+    from .optical_length import optical_length  # noqa: PLC0415
+
+    atm = _build_atmosphere(scene, wavelengths)
+    mu = math.cos(plan.sun_zenith)
+    r = float(atm.planet_radius) + scene.altitude
+    if bool(ray_hits_ground(r, mu, float(atm.planet_radius))):
+        return np.zeros(len(wavelengths))
+    tau = np.zeros(len(wavelengths))
+    for c in atm.constituents:
+        ol = float(optical_length(c.profile, scene.altitude, mu,
+                                  planet_radius=float(atm.planet_radius),
+                                  top_radius=float(atm.top_radius)))
+        tau += c.extinction_array * ol
+    return np.exp(-tau)
+
+
+def sun_disc_radiance(scene: Scene, plan: Plan | None = None):
+    """Radiance at the centre of the solar disc and the disc's angular radius.
+
+    ``L(λ) = E(λ) T(λ) / (Ω_sun (1 − u/3))`` at the disc centre, with ``E`` the
+    ASTM G-173 ETR at the scene's Earth–Sun distance, ``T`` the direct-beam
+    transmittance of the scene's atmosphere (turbidity, ozone) along the sun
+    direction from the observer (exact optical lengths on the sphere), ``Ω_sun``
+    the solar disc's solid angle and ``u`` :data:`LIMB_DARKENING_U` (the mean of
+    ``1 − u(1 − μ)`` over the disc is ``1 − u/3``, so the disc integrates to
+    ``E·T``).  Returns ``(XYZ_centre [cd m⁻²], angular_radius [rad], spectrum)``
+    where ``spectrum`` is ``(wavelengths [nm], L [W m⁻² sr⁻¹ nm⁻¹])``.
+    """
+    from .colour import K_M, cmf_weights  # noqa: PLC0415
+    from .models import FINE_GRID, _band_etr  # noqa: PLC0415
+    from .solar import SUN_ANGULAR_RADIUS  # noqa: PLC0415
+
+    p = make_plan(scene) if plan is None else plan
+    alpha = SUN_ANGULAR_RADIUS / p.distance_au
+    omega = 2.0 * math.pi * (1.0 - math.cos(alpha))
+    grid = FINE_GRID
+    T = _transmittance(scene, p, grid)
+    L = _band_etr(grid, p.distance_au) * T / (omega * (1.0 - LIMB_DARKENING_U / 3.0))
+    xyz = K_M * (L @ cmf_weights(grid))
+    return xyz, alpha, (grid, L)
+
+
+# ----------------------------------------------------------------------------
+# the evaluator
+# ----------------------------------------------------------------------------
+class _Context:
+    """Everything a batch needs, prepared once per render."""
+
+    def __init__(self, scene: Scene, plan: Plan, dset: DirectionSet):
+        self.scene, self.plan, self.dset = scene, plan, dset
+        self.adapter = get_model(scene.model)
+        self.evaluate = self.adapter.prepare(scene, plan)
+        self.sun = plan.sun_direction
+        self.key = "Y" if plan.quantity == "Y" else "XYZ"
+        self.nval = 1 if self.key == "Y" else 3
+        self.nspec = len(plan.wavelengths) if plan.quantity == "spectral" else 0
+        self.ground = np.zeros(self.nval)
+        self.ground_spec = np.zeros(self.nspec)
+        if plan.skip_below_horizon and scene.ground_albedo > 0.0:
+            self._ground_value()
+        self.disc = None
+        if plan.sun_disc:
+            xyz, alpha, (grid, L) = sun_disc_radiance(scene, plan)
+            self.disc = (xyz[1:2] if self.key == "Y" else xyz, alpha)
+            if self.nspec:
+                wl = np.asarray(plan.wavelengths)
+                self.disc_spec = np.interp(wl, grid, L)
+        self.nearest = (-2.0, -1)  # (cos angle to sun, index) of the closest direction
+        self.disc_hit = False
+        self.lock = threading.Lock()
+
+    def _ground_value(self):
+        """ρ E_h / π from the model's own upper-hemisphere radiance (no direct sun)."""
+        x, w = np.polynomial.legendre.leggauss(16)
+        mu = 0.5 * (x + 1.0)
+        wmu = 0.5 * w
+        naz = 64
+        az = 2.0 * np.pi * (np.arange(naz) + 0.5) / naz
+        st = np.sqrt(1.0 - mu**2)
+        d = np.stack([np.outer(st, np.sin(az)), np.outer(st, np.cos(az)),
+                      np.outer(mu, np.ones(naz))], -1).reshape(-1, 3)
+        res = self.evaluate(d)
+        weight = (np.outer(wmu * mu, np.full(naz, 2.0 * np.pi / naz))).ravel()
+        vals = res[self.key].reshape(len(d), -1)
+        eh = weight @ vals
+        self.ground = self.scene.ground_albedo * eh / np.pi
+        if self.nspec and "spectral" in res:
+            self.ground_spec = self.scene.ground_albedo * (weight @ res["spectral"]) / np.pi
+
+    def batch(self, start: int, stop: int) -> dict:
+        """Evaluate directions ``start:stop``; returns per-direction arrays."""
+        plan = self.plan
+        dirs, valid = self.dset.directions(start, stop)
+        n = len(dirs)
+        todo = valid.copy()
+        below = None
+        if plan.skip_below_horizon:
+            below = valid & (dirs[:, 2] < plan.horizon_z)
+            todo &= ~below
+        vals = np.zeros((n, self.nval))
+        spec = np.zeros((n, self.nspec)) if self.nspec else None
+        sel = dirs[todo] if not todo.all() else dirs
+        if len(sel):
+            if plan.symmetry:
+                uniq, inv = mirror_pairs(sel, self.sun)
+                res = self.evaluate(uniq)
+                res = {k: np.asarray(v)[inv] for k, v in res.items()}
+            else:
+                res = self.evaluate(sel)
+            vals[todo] = np.asarray(res[self.key]).reshape(len(sel), self.nval)
+            if spec is not None:
+                spec[todo] = res["spectral"]
+        if below is not None and below.any():
+            vals[below] = self.ground
+            if spec is not None:
+                spec[below] = self.ground_spec
+        if self.disc is not None:
+            self._add_disc(dirs, todo, vals, spec, start)
+        return {"values": vals, "spectral": spec, "alpha": todo}
+
+    def _add_disc(self, dirs, todo, vals, spec, start):
+        xyz, alpha = self.disc
+        c = dirs @ self.sun
+        inside = todo & (c >= math.cos(alpha))
+        if inside.any():
+            rho = np.arccos(np.clip(c[inside], -1.0, 1.0)) / alpha
+            ld = 1.0 - LIMB_DARKENING_U * (1.0 - np.sqrt(np.maximum(1.0 - rho**2, 0.0)))
+            vals[inside] += ld[:, None] * xyz
+            if spec is not None:
+                spec[inside] += ld[:, None] * self.disc_spec
+        cm = np.where(todo, c, -2.0)
+        i = int(np.argmax(cm)) if len(cm) else 0
+        with self.lock:
+            self.disc_hit |= bool(inside.any())
+            if len(cm) and cm[i] > self.nearest[0]:
+                self.nearest = (float(cm[i]), start + i)
+
+
+def _default_workers():
+    return max(1, min(os.cpu_count() or 1, 8))
+
+
+def render_batches(scene: Scene, *, batch_size: int | None = None, plan: Plan | None = None):
+    """Yield ``(start, stop, batch)`` for each batch of the scene's directions, in order.
+
+    ``batch`` holds ``values`` (k, 3) XYZ or (k, 1) Y [cd m⁻²], ``spectral``
+    (k, n_wl) or None and ``alpha`` (k,) bool.  Only one batch exists at a
+    time, so a map of any size can be streamed with bounded memory.
+    """
+    p = make_plan(scene, batch_size=batch_size) if plan is None else plan
+    dset = direction_set(scene, p)
+    ctx = _Context(scene, p, dset)
+    for start, stop in dset.batches(p.batch_size):
+        yield start, stop, ctx.batch(start, stop)
+
+
+def _metadata(scene, plan, dset, adapter):
+    md = {
+        "software": f"atmoscatter {__version__}",
+        "atmoscatter:package": "atmoscatter",
+        "atmoscatter:version": __version__,
+        "atmoscatter:model": scene.model,
+        "atmoscatter:model_description": adapter.description,
+        "atmoscatter:error_estimate": adapter.error_estimate,
+        "atmoscatter:plan": plan.to_json(),
+        "atmoscatter:projection": dset.kind,
+        "atmoscatter:units": "cd m-2 (linear RGB and XYZ), W m-2 sr-1 nm-1 (spectral)",
+        "atmoscatter:frame": "local x=east, y=north, z=up; azimuth from north toward east",
+        "atmoscatter:ground_value": plan.ground_value,
+    }
+    if dset.kind in ("latlong", "cubemap"):
+        md["atmoscatter:envmap_frame"] = "OpenEXR env frame x=west, y=up, z=north"
+    if plan.wavelengths:
+        md["atmoscatter:wavelengths"] = ",".join(f"{w:g}" for w in plan.wavelengths)
+    md.update(scene.to_strings())
+    return md
+
+
+def render(scene: Scene | None = None, *, directions=None, batch_size: int | None = None,
+           workers: int | None = None) -> SkyImage:
+    """Render ``scene`` (default: :class:`Scene` ()) to a :class:`SkyImage`.
+
+    Parameters
+    ----------
+    scene : Scene, optional
+        What to render; ``None`` renders the documented default scene.
+    directions : array_like (..., 3), optional
+        Evaluate these unit view directions (local frame) instead of the
+        scene's projection (e.g. the vertices of your own sky mesh); the
+        layers then have shape ``directions.shape[:-1]``.
+    batch_size : int, optional
+        Directions per model call (default :data:`atmoscatter.scene.DEFAULT_BATCH_SIZE`).
+    workers : int, optional
+        Threads evaluating batches concurrently (default: the number of cores, ≤ 8).
+
+    Returns
+    -------
+    SkyImage
+        float32 layers in cd m⁻² (see :class:`SkyImage`), with the plan and
+        provenance in :attr:`SkyImage.metadata`.
+
+    Notes
+    -----
+    The renderer follows :func:`atmoscatter.plan`: directions below a ground
+    observer's horizon are filled with the plan's ground value without calling
+    the model, mirror pairs are evaluated once when the plan says so, and the
+    sun disc is only computed when drawn.  When the disc is smaller than the
+    pixels and no pixel centre falls inside it, its whole transmitted energy is
+    put into the pixel closest to the sun (radiance ``E·T/Ω_pixel``), so the
+    map's irradiance stays right.
+    """
+    if scene is None:
+        scene = Scene()
+    p = make_plan(scene, batch_size=batch_size)
+    dset = direction_set(scene, p) if directions is None else ArrayDirections(directions)
+    ctx = _Context(scene, p, dset)
+    n = dset.size
+    vals = np.zeros((n, ctx.nval), dtype=np.float32)
+    spec = np.zeros((n, ctx.nspec), dtype=np.float32) if ctx.nspec else None
+    alpha = np.zeros(n, dtype=np.float32)
+    chroma_rgb = ctx.key == "XYZ"
+    rgb = np.zeros((n, 3), dtype=np.float32) if chroma_rgb else None
+    keep_xyz = "XYZ" in p.layers
+    if chroma_rgb:
+        from .colour import XYZ_to_linear_rgb  # noqa: PLC0415
+
+        m_rgb = XYZ_to_linear_rgb(np.eye(3), scene.colourspace)  # rows: RGB of X, Y, Z
+
+    def work(bounds):
+        s, e = bounds
+        b = ctx.batch(s, e)
+        v = b["values"]
+        vals[s:e] = v
+        if rgb is not None:
+            rgb[s:e] = v @ m_rgb
+        if spec is not None:
+            spec[s:e] = b["spectral"]
+        alpha[s:e] = b["alpha"]
+
+    bounds = dset.batches(p.batch_size)
+    nw = _default_workers() if workers is None else max(1, int(workers))
+    if nw == 1 or len(bounds) == 1:
+        for bd in bounds:
+            work(bd)
+    else:
+        with ThreadPoolExecutor(max_workers=nw) as ex:
+            for _ in ex.map(work, bounds):
+                pass
+
+    if ctx.disc is not None and not ctx.disc_hit and ctx.nearest[1] >= 0:
+        i = ctx.nearest[1]
+        omega_pix = float(dset.solid_angles(i, i + 1)[0])
+        xyz_c, a = ctx.disc
+        omega_sun = 2.0 * math.pi * (1.0 - math.cos(a))
+        # the pixel must actually contain the sun (closest centre within ~ a pixel)
+        if omega_pix > 0 and math.acos(min(1.0, ctx.nearest[0])) <= 2.0 * math.sqrt(omega_pix):
+            scale = omega_sun * (1.0 - LIMB_DARKENING_U / 3.0) / omega_pix
+            add = xyz_c * scale
+            vals[i] += add.astype(np.float32)
+            if rgb is not None:
+                rgb[i] += (add @ m_rgb).astype(np.float32)
+            if spec is not None:
+                spec[i] += (ctx.disc_spec * scale).astype(np.float32)
+
+    shape = dset.shape
+    img = SkyImage(scene=scene, plan=p, directions_set=dset,
+                   wavelengths=np.asarray(p.wavelengths) if p.wavelengths else None)
+    if rgb is not None:
+        img.rgb = rgb.reshape(shape + (3,))
+    if keep_xyz:
+        img.xyz = vals.reshape(shape + (3,))
+    if ctx.key == "Y":
+        img.luminance_only = vals.reshape(shape)
+    if spec is not None:
+        img.spectral = spec.reshape(shape + (ctx.nspec,))
+    img.alpha = alpha.reshape(shape)
+    img.metadata = _metadata(scene, p, dset, ctx.adapter)
+    return img

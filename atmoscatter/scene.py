@@ -1,0 +1,737 @@
+"""Scenes: what the user asks for, and the plan of the minimal work to render it.
+
+Public objects
+--------------
+:class:`Scene`
+    Frozen dataclass describing one sky: where and when (or a sun direction),
+    which model, the atmosphere and turbidity, the observer altitude, spectral
+    sampling, output geometry, resolution, colourspace and tone options.
+:func:`load_scene`, :meth:`Scene.from_dict`, :meth:`Scene.replace_from_strings`
+    Build scenes from TOML/JSON files, dictionaries and ``key=value`` strings
+    (the CLI's ``--set``, batch CSV cells), with one clear error per bad field.
+:class:`Plan`, :func:`plan`
+    The minimal set of terms a scene needs.  The renderer follows the plan; the
+    plan is printed by ``atmoscatter render --explain`` and stored in the EXR
+    header.
+
+Units and frames: angles in the scene are in degrees with explicit names
+(``sun_elevation_deg``, ``sun_azimuth_deg`` measured from north toward east),
+latitude/longitude in degrees (east-positive), altitude in metres above the
+ground, time in ISO 8601 (a time without a zone is UTC).  The array API
+(:attr:`Plan.sun_direction`) uses the local frame x = east, y = north, z = up.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import datetime as _dt
+import json
+import math
+import os
+import typing
+from dataclasses import dataclass, field, fields
+
+import numpy as np
+
+__all__ = [
+    "Scene",
+    "Plan",
+    "plan",
+    "load_scene",
+    "PROJECTIONS",
+    "OUTPUTS",
+    "parse_time",
+    "earth_sun_distance",
+]
+
+#: Output geometries (see :mod:`atmoscatter.directions`).
+PROJECTIONS = ("latlong", "cubemap", "fisheye", "dome")
+#: What is computed and written: linear RGB, CIE XYZ (+RGB), luminance Y only,
+#: or spectral radiance (+RGB).
+OUTPUTS = ("rgb", "xyz", "luminance", "spectral")
+SAMPLINGS = ("rgb", "spectral")
+PRECISIONS = ("half", "float")
+TONES = ("exponential", "reinhard", "clip")
+SYMMETRY = ("auto", "on", "off")
+ATMOSPHERES = ("earth", "earth_no_ozone", "mars", "keller_bohn")
+
+#: Altitude [m] below which the observer counts as standing on the ground: the
+#: view rays below the horizon then have zero length and are not integrated.
+GROUND_OBSERVER_ALTITUDE = 1.0
+
+#: Default batch size (directions per model call).  With ~40 float64
+#: temporaries per direction this keeps a batch near 20 MB per worker.
+DEFAULT_BATCH_SIZE = 65536
+
+
+@dataclass(frozen=True)
+class Scene:
+    """One sky to render.
+
+    Every field has a default: ``Scene()`` is the documented default scene —
+    a clear sky (Preetham, turbidity 2.5) seen from the Royal Observatory,
+    Greenwich (51.4779° N, 0.0015° W) on 2024-06-21 at 09:00 UTC, as a
+    1024 × 512 lat-long map.
+
+    Parameters
+    ----------
+    name : str
+        File stem used by batch runs and recorded in metadata.
+    model : str
+        Sky model, one of :data:`atmoscatter.models.MODELS` (``preetham``,
+        ``cie_overcast``, ``cie_clear``, ``hoffman_preetham``,
+        ``single_scattering``, ``multiple_scattering`` as they are available).
+    turbidity : float
+        Linke-type turbidity ``T = (τ_m + τ_h)/τ_m`` [1], ≥ 1 (1 = no haze).
+    sun_elevation_deg, sun_azimuth_deg : float or None
+        Sun direction [deg]; azimuth from north toward east.  When given they
+        override the position computed from ``time``/``latitude``/``longitude``.
+        If only the elevation is given the azimuth defaults to 180° (south).
+    latitude, longitude : float
+        Observer site [deg], east-positive longitude.
+    time : str
+        ISO 8601 date-time (UTC when no zone is given).  Sets the sun position
+        (unless the sun angles are given) and the Earth–Sun distance.
+    altitude : float
+        Observer altitude above the ground [m].
+    atmosphere : str
+        Atmosphere preset of the physical models, one of ``earth``,
+        ``earth_no_ozone``, ``mars``, ``keller_bohn``.
+    ground_albedo : float
+        Lambertian ground albedo in [0, 1]: used by multiple scattering and for
+        the documented ground value below a ground observer's horizon.
+    orders : int
+        Scattering orders of ``multiple_scattering`` (1 = single scattering).
+    sampling : str
+        ``rgb`` (the atmosphere's three sample wavelengths 680/550/440 nm) or
+        ``spectral`` (380–780 nm every ``wavelength_step`` nm) for the physical
+        models.
+    wavelength_step : float
+        Spectral step [nm] when ``sampling = "spectral"``.
+    output : str
+        ``rgb``, ``xyz`` (XYZ and RGB), ``luminance`` (Y only) or ``spectral``.
+    colourspace : str
+        RGB colourspace name known to colour-science (default ``sRGB``, linear).
+    projection : str
+        ``latlong``, ``cubemap`` (``width`` = face size), ``fisheye`` (upper
+        hemisphere, angular/equidistant) or ``dome`` (a sky-dome mesh).
+    width, height : int
+        Image size [pixels].  For ``dome``: azimuth segments and elevation rings.
+    refinement : int
+        Dome only: levels of adaptive subdivision around the sun (seed 002).
+    precision : str
+        EXR pixel type, ``half`` or ``float``.
+    alpha : bool
+        Write an alpha channel (1 = sky, 0 = ground or outside the map).
+    sun_disc : bool
+        Draw the sun disc (transmitted solar radiance, limb darkened).
+    exposure : float or None
+        Preview exposure [m² cd⁻¹]; ``None`` chooses one from the image.
+    tone : str
+        Preview tone curve: ``exponential`` (seed 002 ``1 − e^{−exposure·L}``),
+        ``reinhard`` or ``clip``.
+    symmetry : str
+        Mirror symmetry about the solar vertical: ``auto`` (use it where it
+        saves work), ``on`` or ``off``.
+    method : str or None
+        Quadrature method passed to the numerical models (``None`` = default).
+    """
+
+    name: str = "sky"
+    model: str = "preetham"
+    turbidity: float = 2.5
+    sun_elevation_deg: float | None = None
+    sun_azimuth_deg: float | None = None
+    latitude: float = 51.4779
+    longitude: float = -0.0015
+    time: str = "2024-06-21T09:00:00Z"
+    altitude: float = 0.0
+    atmosphere: str = "earth"
+    ground_albedo: float = 0.0
+    orders: int = 4
+    sampling: str = "rgb"
+    wavelength_step: float = 10.0
+    output: str = "rgb"
+    colourspace: str = "sRGB"
+    projection: str = "latlong"
+    width: int = 1024
+    height: int = 512
+    refinement: int = 2
+    precision: str = "float"
+    alpha: bool = False
+    sun_disc: bool = False
+    exposure: float | None = None
+    tone: str = "exponential"
+    symmetry: str = "auto"
+    method: str | None = None
+
+    # ------------------------------------------------------------------
+    def __post_init__(self):
+        _coerce_fields(self)
+        _validate(self)
+
+    # ------------------------------------------------------------------
+    @classmethod
+    def field_names(cls) -> tuple[str, ...]:
+        """Names of all scene fields (the valid keys of files and ``--set``)."""
+        return tuple(f.name for f in fields(cls))
+
+    @classmethod
+    def from_dict(cls, data: typing.Mapping, *, base: Scene | None = None) -> Scene:
+        """Build a scene from a mapping (values may be strings, as in CSV).
+
+        Unknown keys raise :class:`ValueError` listing the valid ones.  Empty
+        strings leave the field at its default (or the value in ``base``).
+        """
+        names = cls.field_names()
+        unknown = [k for k in data if k not in names]
+        if unknown:
+            raise ValueError(
+                f"unknown scene field {unknown[0]!r}; valid fields are: {', '.join(names)}"
+            )
+        values = {}
+        for k, v in data.items():
+            if isinstance(v, str) and v.strip() == "":
+                continue
+            values[k] = v
+        if base is None:
+            return cls(**values)
+        return dataclasses.replace(base, **values)
+
+    def replace_from_strings(self, assignments) -> Scene:
+        """Apply ``key=value`` strings (the CLI's ``--set``) and return a new scene."""
+        return Scene.from_dict(_parse_assignments(assignments), base=self)
+
+    def to_dict(self) -> dict:
+        """The scene as a plain dictionary (``None`` kept)."""
+        return {f.name: getattr(self, f.name) for f in fields(self)}
+
+    def to_strings(self) -> dict[str, str]:
+        """Every field as a string (for EXR header attributes); ``None`` → ``""``."""
+        out = {}
+        for k, v in self.to_dict().items():
+            if v is None:
+                out[k] = ""
+            elif isinstance(v, bool):
+                out[k] = "true" if v else "false"
+            else:
+                out[k] = str(v)
+        return out
+
+    # ------------------------------------------------------------------
+    def datetime(self) -> _dt.datetime | None:
+        """The scene time as an aware UTC :class:`datetime.datetime` (or None)."""
+        return parse_time(self.time) if self.time else None
+
+    def sun_angles(self) -> tuple[float, float, str]:
+        """Sun (zenith, azimuth) [rad] and how they were obtained.
+
+        Uses ``sun_elevation_deg``/``sun_azimuth_deg`` when given, otherwise
+        :func:`atmoscatter.sun_position` (apparent position, with refraction)
+        for ``time``, ``latitude`` and ``longitude``.
+        """
+        if self.sun_elevation_deg is not None:
+            az = 180.0 if self.sun_azimuth_deg is None else self.sun_azimuth_deg
+            return (
+                math.radians(90.0 - self.sun_elevation_deg),
+                math.radians(az % 360.0),
+                "given (sun_elevation_deg, sun_azimuth_deg)",
+            )
+        try:
+            from . import sun as _sun  # noqa: PLC0415 - lazy: lands from another issue
+        except ImportError as exc:  # pragma: no cover - depends on merge state
+            raise ValueError(
+                "this scene gives a time and place but atmoscatter.sun is not available; "
+                "give sun_elevation_deg and sun_azimuth_deg instead"
+            ) from exc
+        t = np.datetime64(self.datetime().replace(tzinfo=None), "ns")
+        pos = _sun.sun_position(t, self.latitude, self.longitude, elevation=0.0)
+        zen = float(np.asarray(pos.zenith))
+        azi = float(np.asarray(pos.azimuth)) % (2 * math.pi)
+        return zen, azi, "sun_position(time, latitude, longitude)"
+
+    def sun_direction(self) -> np.ndarray:
+        """Unit vector toward the sun, local frame (x = east, y = north, z = up)."""
+        zen, azi, _ = self.sun_angles()
+        return np.array(
+            [math.sin(zen) * math.sin(azi), math.sin(zen) * math.cos(azi), math.cos(zen)]
+        )
+
+
+def _field_kind(f) -> tuple[type, bool]:
+    """(base type, optional) of a dataclass field annotation string."""
+    ann = f.type if isinstance(f.type, str) else getattr(f.type, "__name__", str(f.type))
+    optional = "None" in ann
+    base = ann.replace("| None", "").replace("None |", "").strip()
+    return {"str": str, "float": float, "int": int, "bool": bool}[base], optional
+
+
+_TRUE = {"1", "true", "yes", "on"}
+_FALSE = {"0", "false", "no", "off"}
+
+
+def _coerce(name, kind, optional, value):
+    if value is None:
+        if optional:
+            return None
+        raise ValueError(f"scene field {name} must not be empty")
+    if isinstance(value, str) and optional and value.strip().lower() in ("", "none", "null"):
+        return None
+    try:
+        if kind is bool:
+            if isinstance(value, (bool, np.bool_)):
+                return bool(value)
+            if isinstance(value, str) and value.strip().lower() in _TRUE | _FALSE:
+                return value.strip().lower() in _TRUE
+            if isinstance(value, (int, np.integer)) and value in (0, 1):
+                return bool(value)
+            raise ValueError
+        if kind is int:
+            if isinstance(value, (bool, np.bool_)):
+                raise ValueError
+            fv = float(value)
+            if not fv.is_integer():
+                raise ValueError
+            return int(fv)
+        if kind is float:
+            if isinstance(value, (bool, np.bool_)):
+                raise ValueError
+            return float(value)
+        if kind is str:
+            if isinstance(value, (_dt.datetime, _dt.date)):
+                return value.isoformat()
+            if not isinstance(value, str):
+                raise ValueError
+            return value
+    except (TypeError, ValueError):
+        expected = {bool: "true/false", int: "an integer", float: "a number", str: "a string"}
+        raise ValueError(
+            f"scene field {name} must be {expected[kind]}, got {value!r}"
+        ) from None
+    raise AssertionError(kind)  # pragma: no cover
+
+
+def _coerce_fields(scene: Scene) -> None:
+    for f in fields(scene):
+        kind, optional = _field_kind(f)
+        value = _coerce(f.name, kind, optional, getattr(scene, f.name))
+        object.__setattr__(scene, f.name, value)
+
+
+def _check(cond, msg):
+    if not cond:
+        raise ValueError(msg)
+
+
+def _finite(scene, name):
+    v = getattr(scene, name)
+    _check(v is None or math.isfinite(v), f"scene field {name} must be finite, got {v!r}")
+
+
+def _validate(s: Scene) -> None:
+    from .models import MODELS  # noqa: PLC0415 - models import nothing from here
+
+    for name in ("turbidity", "latitude", "longitude", "altitude", "ground_albedo",
+                 "wavelength_step", "sun_elevation_deg", "sun_azimuth_deg", "exposure"):
+        _finite(s, name)
+    if s.model not in MODELS:
+        raise ValueError(f"model={s.model!r} is not valid; choose one of {sorted(MODELS)}")
+    _check(s.turbidity >= 1.0, f"turbidity must be in [1, inf) (1 = no haze), got {s.turbidity!r}")
+    _check(-90.0 <= s.latitude <= 90.0, f"latitude must be in [-90, 90] deg, got {s.latitude!r}")
+    _check(-180.0 <= s.longitude <= 360.0,
+           f"longitude must be in [-180, 360] deg, got {s.longitude!r}")
+    if s.sun_elevation_deg is not None:
+        _check(-90.0 <= s.sun_elevation_deg <= 90.0,
+               f"sun_elevation_deg must be in [-90, 90] deg, got {s.sun_elevation_deg!r}")
+    if s.sun_azimuth_deg is not None:
+        _check(s.sun_elevation_deg is not None,
+               "sun_azimuth_deg was given without sun_elevation_deg; give both (or neither and a time)")
+    if s.time:
+        parse_time(s.time)
+    else:
+        _check(s.sun_elevation_deg is not None,
+               "the scene needs either a time (with latitude/longitude) or sun_elevation_deg")
+    _check(s.altitude >= 0.0, f"altitude must be in [0, inf) m, got {s.altitude!r}")
+    _check(0.0 <= s.ground_albedo <= 1.0, f"ground_albedo must be in [0, 1], got {s.ground_albedo!r}")
+    _check(s.orders >= 1, f"orders must be in [1, inf), got {s.orders!r}")
+    _check(1.0 <= s.wavelength_step <= 100.0,
+           f"wavelength_step must be in [1, 100] nm, got {s.wavelength_step!r}")
+    for name, options in (("projection", PROJECTIONS), ("output", OUTPUTS),
+                          ("sampling", SAMPLINGS), ("precision", PRECISIONS), ("tone", TONES),
+                          ("symmetry", SYMMETRY), ("atmosphere", ATMOSPHERES)):
+        v = getattr(s, name)
+        _check(v in options, f"{name}={v!r} is not valid; choose one of {sorted(options)}")
+    _check(1 <= s.width <= 65536, f"width must be in [1, 65536] pixels, got {s.width!r}")
+    _check(1 <= s.height <= 65536, f"height must be in [1, 65536] pixels, got {s.height!r}")
+    if s.projection == "dome":
+        _check(s.width >= 3 and s.height >= 1,
+               f"dome needs width >= 3 azimuth segments and height >= 1 rings, got {s.width}x{s.height}")
+    _check(0 <= s.refinement <= 8, f"refinement must be in [0, 8], got {s.refinement!r}")
+    if s.exposure is not None:
+        _check(s.exposure > 0, f"exposure must be in (0, inf) m^2/cd, got {s.exposure!r}")
+    try:
+        import colour  # noqa: PLC0415
+
+        if s.colourspace not in colour.RGB_COLOURSPACES:
+            raise ValueError(
+                f"colourspace={s.colourspace!r} is not valid; choose an RGB colourspace known "
+                "to colour-science, e.g. 'sRGB', 'ITU-R BT.2020', 'ACEScg'"
+            )
+    except ImportError:  # pragma: no cover
+        pass
+
+
+# ----------------------------------------------------------------------------
+# time and Earth–Sun distance
+# ----------------------------------------------------------------------------
+def parse_time(value: str) -> _dt.datetime:
+    """Parse an ISO 8601 date-time; a time without a zone is taken as UTC.
+
+    Returns an aware :class:`datetime.datetime` in UTC.  ``Z`` is accepted as
+    the UTC designator.  Raises :class:`ValueError` naming the value.
+    """
+    if isinstance(value, _dt.datetime):
+        t = value
+    else:
+        text = str(value).strip()
+        if text.endswith(("Z", "z")):
+            text = text[:-1] + "+00:00"
+        try:
+            t = _dt.datetime.fromisoformat(text)
+        except ValueError:
+            raise ValueError(
+                f"time must be an ISO 8601 date-time such as 2024-06-21T09:00:00Z, got {value!r}"
+            ) from None
+    if t.tzinfo is None:
+        t = t.replace(tzinfo=_dt.timezone.utc)
+    return t.astimezone(_dt.timezone.utc)
+
+
+def earth_sun_distance(time) -> float:
+    """Earth–Sun distance [AU] at ``time`` (ISO 8601 string or datetime).
+
+    Low-precision formula of the Astronomical Almanac (USNO "approximate solar
+    coordinates"): ``R = 1.00014 − 0.01671 cos g − 0.00014 cos 2g`` with the
+    mean anomaly ``g = 357.529° + 0.98560028° n`` and ``n`` the days since
+    J2000.0 (2000-01-01 12:00 TT, taken as UTC here); accurate to about 1e-5 AU
+    for 1950–2050.
+    """
+    t = parse_time(time)
+    j2000 = _dt.datetime(2000, 1, 1, 12, tzinfo=_dt.timezone.utc)
+    n = (t - j2000).total_seconds() / 86400.0
+    g = math.radians((357.529 + 0.98560028 * n) % 360.0)
+    return 1.00014 - 0.01671 * math.cos(g) - 0.00014 * math.cos(2.0 * g)
+
+
+# ----------------------------------------------------------------------------
+# loading
+# ----------------------------------------------------------------------------
+def _load_toml(path):
+    try:
+        import tomllib  # noqa: PLC0415
+    except ModuleNotFoundError:  # pragma: no cover - Python 3.10
+        import tomli as tomllib  # noqa: PLC0415
+    with open(path, "rb") as fh:
+        try:
+            return tomllib.load(fh)
+        except tomllib.TOMLDecodeError as exc:
+            raise ValueError(f"{path}: not valid TOML: {exc}") from None
+
+
+def _load_json(path):
+    with open(path, encoding="utf-8") as fh:
+        try:
+            return json.load(fh)
+        except json.JSONDecodeError as exc:
+            raise ValueError(f"{path}: not valid JSON: {exc}") from None
+
+
+def _parse_assignments(assignments) -> dict:
+    data = {}
+    for item in assignments or ():
+        if "=" not in item:
+            raise ValueError(f"--set expects key=value, got {item!r}")
+        key, value = item.split("=", 1)
+        data[key.strip()] = value.strip()
+    return data
+
+
+def _read_scene_file(path) -> dict:
+    path = os.fspath(path)
+    if not os.path.exists(path):
+        raise ValueError(f"scene file {path!r} does not exist")
+    ext = os.path.splitext(path)[1].lower()
+    if ext == ".toml":
+        data = _load_toml(path)
+    elif ext == ".json":
+        data = _load_json(path)
+    else:
+        raise ValueError(f"scene file {path!r}: expected a .toml or .json file")
+    if not isinstance(data, dict):
+        raise ValueError(f"{path}: a scene file must hold a table/object of scene fields")
+    if "scene" in data and isinstance(data["scene"], dict):
+        data = data["scene"]
+    return dict(data)
+
+
+def load_scene(path: str | os.PathLike | None = None, *, overrides=None) -> Scene:
+    """Load a scene from a TOML (``.toml``) or JSON (``.json``) file.
+
+    The file holds the scene fields at top level or inside a ``[scene]`` table
+    (TOML) / ``"scene"`` object (JSON).  ``overrides`` — a mapping or
+    ``key=value`` strings (the CLI's ``--set``) — are applied on top; with
+    ``path=None`` they apply to the defaults.  Unknown fields and invalid
+    values raise :class:`ValueError` naming the file and the field.
+    """
+    data = _read_scene_file(path) if path is not None else {}
+    if overrides:
+        if isinstance(overrides, dict):
+            data.update(overrides)
+        else:
+            data.update(_parse_assignments(overrides))
+    try:
+        return Scene.from_dict(data)
+    except ValueError as exc:
+        if path is None:
+            raise
+        raise ValueError(f"{os.fspath(path)}: {exc}") from None
+
+
+# ----------------------------------------------------------------------------
+# the plan
+# ----------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Plan:
+    """The minimal work a scene needs; the renderer follows it exactly.
+
+    Attributes
+    ----------
+    model : str
+        Model name (key of :data:`atmoscatter.models.MODELS`).
+    quantity : str
+        What the model is asked for: ``"Y"`` (luminance only), ``"XYZ"``, or
+        ``"spectral"`` (spectral radiance, integrated to XYZ by the adapter).
+    layers : tuple of str
+        Output layers: some of ``RGB``, ``XYZ``, ``Y``, ``spectral``.
+    chromaticity : bool
+        Whether chromaticity (x, y) is computed at all.
+    haze : bool
+        Whether an aerosol/haze term is evaluated (False at turbidity 1).
+    spectral_integration : str
+        ``"none"``, ``"Y only"`` (ȳ only) or ``"XYZ"`` (three CMFs).
+    wavelengths : tuple of float
+        Wavelengths [nm] the physical model is evaluated at (empty otherwise).
+    skip_below_horizon : bool
+        Directions below the horizon are not evaluated but filled with
+        ``ground_value`` (a ground observer sees the ground there).
+    horizon_z : float
+        Directions with z < horizon_z count as below the horizon.
+    ground_value : str
+        What below-horizon directions are filled with (documented text).
+    symmetry : bool
+        Mirror symmetry about the solar vertical: only one of each mirror pair
+        of directions in a batch is evaluated.
+    sun_disc : bool
+        Whether the sun disc is drawn (no sun-disc work otherwise).
+    sun_zenith, sun_azimuth : float
+        Sun angles [rad] (azimuth from north toward east).
+    sun_source : str
+        Where the sun angles came from.
+    distance_au : float
+        Earth–Sun distance [AU] for the scene's date (1.0 if no date).
+    batch_size : int
+        Directions per model call (bounds memory).
+    notes : tuple of str
+        Human-readable reasons for each decision.
+    """
+
+    model: str
+    quantity: str
+    layers: tuple
+    chromaticity: bool
+    haze: bool
+    spectral_integration: str
+    wavelengths: tuple
+    skip_below_horizon: bool
+    horizon_z: float
+    ground_value: str
+    symmetry: bool
+    sun_disc: bool
+    sun_zenith: float
+    sun_azimuth: float
+    sun_source: str
+    distance_au: float
+    batch_size: int
+    notes: tuple = field(default_factory=tuple)
+
+    @property
+    def sun_direction(self) -> np.ndarray:
+        """Unit vector toward the sun (x = east, y = north, z = up)."""
+        z, a = self.sun_zenith, self.sun_azimuth
+        return np.array([math.sin(z) * math.sin(a), math.sin(z) * math.cos(a), math.cos(z)])
+
+    def to_dict(self) -> dict:
+        """The plan as a JSON-serialisable dictionary."""
+        d = dataclasses.asdict(self)
+        d["layers"] = list(self.layers)
+        d["wavelengths"] = list(self.wavelengths)
+        d["notes"] = list(self.notes)
+        return d
+
+    def to_json(self) -> str:
+        """The plan as compact JSON (stored in the EXR header)."""
+        return json.dumps(self.to_dict(), sort_keys=True)
+
+    def explain(self) -> str:
+        """A readable multi-line description (``atmoscatter render --explain``)."""
+        lines = [
+            f"model            : {self.model} (asked for {self.quantity})",
+            f"layers           : {', '.join(self.layers)}",
+            f"sun              : zenith {math.degrees(self.sun_zenith):.4f} deg, azimuth "
+            f"{math.degrees(self.sun_azimuth):.4f} deg ({self.sun_source}); "
+            f"Earth-Sun distance {self.distance_au:.5f} AU",
+            f"haze term        : {'yes' if self.haze else 'skipped'}",
+            f"chromaticity     : {'yes' if self.chromaticity else 'skipped'}",
+            f"spectral integr. : {self.spectral_integration}"
+            + (f" over {len(self.wavelengths)} wavelengths" if self.wavelengths else ""),
+            "below horizon    : "
+            + (f"not evaluated (z < {self.horizon_z:g}), filled with {self.ground_value}"
+               if self.skip_below_horizon else "evaluated"),
+            f"mirror symmetry  : {'used' if self.symmetry else 'not used'}",
+            f"sun disc         : {'drawn' if self.sun_disc else 'skipped'}",
+            f"batch size       : {self.batch_size} directions",
+        ]
+        if self.notes:
+            lines.append("why:")
+            lines.extend(f"  - {n}" for n in self.notes)
+        return "\n".join(lines)
+
+
+def _ground_value_text(scene: Scene) -> str:
+    if scene.ground_albedo == 0.0:
+        return "0 (black ground, ground_albedo = 0)"
+    return (f"a Lambertian ground of albedo {scene.ground_albedo:g} lit by the model's own "
+            "diffuse sky (rho * E_h / pi, no direct sun)")
+
+
+def plan(scene: Scene, *, batch_size: int | None = None) -> Plan:
+    """Decide the minimal work for ``scene``.
+
+    Decisions (each recorded in :attr:`Plan.notes`):
+
+    * **haze** — skipped at turbidity 1 (no aerosol) for models with a separate
+      haze term; the Preetham fit has none (turbidity is a fit parameter).
+    * **luminance only** (``output = "luminance"``) — the model is asked for Y
+      only: no chromaticity, and for spectral models only the ȳ integral.
+    * **spectral** — spectral radiance is only kept when ``output = "spectral"``.
+    * **below the horizon** — for an observer on the ground (altitude < 1 m) or
+      a ground-only model, directions with z < 0 are not evaluated but filled
+      with the documented ground value (0 unless ``ground_albedo`` > 0).
+    * **mirror symmetry** — for a horizontally uniform model, mirror pairs of
+      directions about the solar vertical are evaluated once (``auto`` uses it
+      for the models whose per-direction cost exceeds the cost of finding the
+      pairs).
+    * **sun disc** — only evaluated when ``sun_disc`` is true.
+    """
+    from .models import get_model  # noqa: PLC0415
+
+    adapter = get_model(scene.model)
+    notes = []
+    zen, azi, source = scene.sun_angles()
+    distance = earth_sun_distance(scene.time) if scene.time else 1.0
+
+    # what is asked for --------------------------------------------------------
+    if scene.output == "luminance":
+        quantity, layers, chroma = "Y", ("Y",), False
+        notes.append("only luminance is asked: no chromaticity, Y only")
+    elif scene.output == "xyz":
+        quantity, layers, chroma = "XYZ", ("RGB", "XYZ"), True
+    elif scene.output == "spectral":
+        if not adapter.spectral:
+            raise ValueError(
+                f"output='spectral' needs a spectral model; {scene.model!r} is photometric "
+                f"(spectral models: {', '.join(n for n, a in _models().items() if a.spectral)})"
+            )
+        quantity, layers, chroma = "spectral", ("RGB", "spectral"), True
+    else:
+        quantity, layers, chroma = "XYZ", ("RGB",), True
+    if scene.alpha and "RGB" in layers:
+        layers = layers + ("A",)
+
+    # haze --------------------------------------------------------------------
+    if adapter.separate_haze:
+        haze = scene.turbidity > 1.0
+        if not haze:
+            notes.append("turbidity 1: no aerosol, the haze term is left out")
+    else:
+        haze = scene.turbidity > 1.0
+        notes.append(f"{scene.model}: turbidity is a parameter of the fit (no separate haze term)")
+
+    # spectral sampling ----------------------------------------------------------
+    if adapter.spectral:
+        wavelengths = adapter.wavelengths(scene)
+        integration = "Y only" if quantity == "Y" else "XYZ"
+        if quantity == "Y":
+            notes.append("luminance only: the spectrum is integrated with y-bar alone")
+    else:
+        wavelengths = ()
+        integration = "none"
+
+    # below the horizon --------------------------------------------------------
+    ground_observer = scene.altitude < GROUND_OBSERVER_ALTITUDE
+    skip_below = ground_observer or adapter.ground_only
+    if skip_below:
+        notes.append(
+            "observer on the ground: directions below the horizon are not integrated"
+            if ground_observer else f"{scene.model} is defined for the upper hemisphere only"
+        )
+
+    # symmetry ------------------------------------------------------------------
+    if scene.symmetry == "off" or not adapter.horizontally_uniform:
+        symmetry = False
+        if not adapter.horizontally_uniform:
+            notes.append(f"{scene.model} is not horizontally uniform: no mirror symmetry")
+    elif scene.symmetry == "on":
+        symmetry = True
+        notes.append("mirror symmetry about the solar vertical: forced on")
+    else:
+        symmetry = adapter.cost_per_direction >= 2e-6
+        notes.append(
+            "mirror symmetry about the solar vertical: each mirror pair evaluated once"
+            if symmetry else
+            f"{scene.model} is cheaper per direction than finding mirror pairs: symmetry not used"
+        )
+
+    if not scene.sun_disc:
+        notes.append("sun disc not drawn: no sun-disc work")
+
+    bs = DEFAULT_BATCH_SIZE if batch_size is None else int(batch_size)
+    if bs < 1:
+        raise ValueError(f"batch_size must be in [1, inf), got {batch_size!r}")
+    return Plan(
+        model=scene.model,
+        quantity=quantity,
+        layers=layers,
+        chromaticity=chroma,
+        haze=haze,
+        spectral_integration=integration,
+        wavelengths=tuple(float(w) for w in wavelengths),
+        skip_below_horizon=skip_below,
+        horizon_z=0.0,
+        ground_value=_ground_value_text(scene),
+        symmetry=symmetry,
+        sun_disc=scene.sun_disc,
+        sun_zenith=float(zen),
+        sun_azimuth=float(azi),
+        sun_source=source,
+        distance_au=float(distance),
+        batch_size=bs,
+        notes=tuple(notes),
+    )
+
+
+def _models():
+    from .models import MODELS  # noqa: PLC0415
+
+    return MODELS
+

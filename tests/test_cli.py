@@ -1,0 +1,141 @@
+"""The `atmoscatter` command: render, batch, info, preview; one-line errors."""
+
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+import atmoscatter as ac
+from atmoscatter.cli import main
+from atmoscatter.exr import read_exr
+from atmoscatter.models import ModelAdapter, register_model, unregister_model
+
+
+def _toy_prepare(scene, plan):
+    sun = plan.sun_direction
+
+    def evaluate(d):
+        y = 2000.0 + 3000.0 * (d @ sun) ** 2 + 1000.0 * d[:, 2]
+        return {"Y": y} if plan.quantity == "Y" else {"XYZ": np.stack([0.9 * y, y, 1.2 * y], -1)}
+
+    return evaluate
+
+
+@pytest.fixture(autouse=True)
+def toy():
+    register_model(ModelAdapter(name="toy", description="toy sky", prepare=_toy_prepare),
+                   replace=True)
+    yield
+    unregister_model("toy")
+
+
+TOY = ["--set", "model=toy", "--set", "sun_elevation_deg=30", "--set", "sun_azimuth_deg=200",
+       "--set", "width=32", "--set", "height=16"]
+
+
+def test_render_set_and_info(tmp_path, capsys):
+    out = tmp_path / "sky.exr"
+    assert main(["render", "-o", str(out), *TOY, "--set", "turbidity=5"]) == 0
+    assert "wrote" in capsys.readouterr().out
+    img = read_exr(out)
+    assert img.rgb.shape == (16, 32, 3) and img.header["turbidity"] == "5.0"
+    assert main(["info", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "turbidity          = 5.0" in text and "atmoscatter:version" in text
+    assert "skip_below_horizon" in text
+    assert main(["info", str(out), "--json"]) == 0
+    assert '"turbidity": "5.0"' in capsys.readouterr().out
+
+
+def test_render_scene_file_and_preview(tmp_path, capsys):
+    f = tmp_path / "scene.toml"
+    f.write_text('model = "toy"\nsun_elevation_deg = 20.0\nwidth = 16\nheight = 8\n'
+                 'projection = "fisheye"\n')
+    out = tmp_path / "fish.exr"
+    png = tmp_path / "fish.png"
+    assert main(["render", str(f), "-o", str(out), "--preview", str(png)]) == 0
+    assert read_exr(out).header["projection"] == "fisheye"
+    assert png.read_bytes()[:4] == b"\x89PNG"
+    png2 = tmp_path / "p2.png"
+    assert main(["preview", str(out), "-o", str(png2), "--alpha", "sky", "--tone",
+                 "reinhard"]) == 0
+    assert png2.exists()
+
+
+def test_explain_only(capsys, tmp_path):
+    assert main(["render", "--explain", *TOY, "--set", "output=luminance"]) == 0
+    text = capsys.readouterr().out
+    assert "chromaticity     : skipped" in text and "below horizon" in text
+    assert not list(tmp_path.iterdir())
+
+
+@pytest.mark.parametrize("argv,match", [
+    (["render", "-o", "x.exr", "--set", "turbidty=3"], "unknown scene field 'turbidty'"),
+    (["render", "-o", "x.exr", "--set", "model=toy", "--set", "turbidity=0"],
+     r"turbidity must be in \[1, inf\)"),
+    (["render", "missing.toml", "-o", "x.exr"], "does not exist"),
+    (["render", "--set", "model=toy", "--set", "sun_elevation_deg=10"], "needs an output file"),
+    (["info", "nothing.exr"], "does not exist"),
+    (["batch", "nothing.csv", "-o", "out"], "does not exist"),
+])
+def test_errors_are_one_line(argv, match, capsys, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("atmoscatter: error: ") and err.count("\n") == 1
+    assert "Traceback" not in err
+    import re
+
+    assert re.search(match, err)
+    assert not (tmp_path / "x.exr").exists()
+
+
+def test_debug_shows_traceback():
+    with pytest.raises(ValueError, match="turbidty"):
+        main(["render", "-o", "x.exr", "--set", "turbidty=3", "--debug"])
+
+
+def test_batch_command(tmp_path, capsys):
+    csv = tmp_path / "s.csv"
+    csv.write_text("name,model,turbidity,sun_elevation_deg,width,height\n"
+                   "a,toy,2,30,16,8\nb,toy,-2,30,16,8\n")
+    out = tmp_path / "out"
+    assert main(["batch", str(csv), "-o", str(out), "--quiet"]) == 1  # one scene failed
+    text = capsys.readouterr().out
+    assert "1 rendered" in text and "FAILED b" in text
+    assert (out / "a.exr").exists() and not (out / "b.exr").exists()
+    assert main(["batch", str(csv), "-o", str(out), "--set", "turbidity=3", "--quiet",
+                 "--no-resume"]) == 0
+    assert read_exr(out / "b.exr").header["turbidity"] == "3.0"
+
+
+def test_models_listing(capsys):
+    assert main(["models"]) == 0
+    assert "toy" in capsys.readouterr().out
+
+
+def test_console_entry_point_error_in_subprocess(tmp_path):
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(
+        [os.path.dirname(os.path.dirname(ac.__file__)), os.environ.get("PYTHONPATH", "")]))
+    r = subprocess.run([sys.executable, "-m", "atmoscatter", "render", "-o", "x.exr",
+                        "--set", "width=-3"], capture_output=True, text=True, cwd=tmp_path,
+                       env=env, timeout=120)
+    assert r.returncode == 2
+    assert r.stderr.count("\n") == 1 and "Traceback" not in r.stderr
+    assert "width" in r.stderr or "model" in r.stderr
+
+
+@pytest.mark.skipif("preetham" not in ac.MODELS, reason="preetham_sky has not landed")
+def test_readme_command_renders_default_sky(tmp_path):
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(
+        [os.path.dirname(os.path.dirname(ac.__file__)), os.environ.get("PYTHONPATH", "")]))
+    r = subprocess.run([sys.executable, "-m", "atmoscatter", "render", "-o", "sky.exr",
+                        "--set", "width=128", "--set", "height=64"],
+                       capture_output=True, text=True, cwd=tmp_path, env=env, timeout=300)
+    assert r.returncode == 0, r.stderr
+    img = read_exr(tmp_path / "sky.exr")
+    assert img.header["model"] == "preetham" and img.header["time"].startswith("2024-06-21")
+    sky = img.rgb[:32]
+    assert np.all(np.isfinite(sky)) and sky.min() > 0

@@ -1,0 +1,392 @@
+"""The renderer follows the plan: skipped work is not done, memory stays bounded,
+physical models come out in absolute units."""
+
+import importlib
+import math
+import tracemalloc
+
+import numpy as np
+import pytest
+from scipy import integrate
+
+import atmoscatter as ac
+from atmoscatter.colour import K_M
+from atmoscatter.models import (
+    FINE_GRID,
+    ModelAdapter,
+    physical_adapter,
+    register_model,
+    rgb_sampling_matrix,
+    unregister_model,
+)
+from atmoscatter.scene import Scene, plan
+from atmoscatter.solar import solar_spectrum_table
+
+render_mod = importlib.import_module("atmoscatter.render")
+CALLS = []
+
+
+def toy_luminance(d, sun):
+    """A horizontally uniform toy sky [cd m^-2]: depends on z and the angle to the sun."""
+    c = d @ sun
+    return 2000.0 + 3000.0 * c**2 + 1000.0 * d[:, 2]
+
+
+def _toy_prepare(scene, plan):
+    sun = plan.sun_direction
+
+    def evaluate(d):
+        CALLS.append((plan.quantity, len(d), float(d[:, 2].min()) if len(d) else 1.0))
+        y = toy_luminance(d, sun)
+        if plan.quantity == "Y":
+            return {"Y": y}
+        return {"XYZ": np.stack([0.9505 * y, y, 1.089 * y], -1)}
+
+    return evaluate
+
+
+@pytest.fixture(autouse=True)
+def toy_models():
+    CALLS.clear()
+    register_model(ModelAdapter(name="toy", description="toy", prepare=_toy_prepare), replace=True)
+    register_model(ModelAdapter(name="toy_slow", description="toy, declared expensive",
+                                prepare=_toy_prepare, cost_per_direction=1e-4,
+                                ground_only=False), replace=True)
+    yield
+    unregister_model("toy")
+    unregister_model("toy_slow")
+
+
+def scene(**kw):
+    kw.setdefault("model", "toy")
+    kw.setdefault("sun_elevation_deg", 35.0)
+    kw.setdefault("sun_azimuth_deg", 150.0)
+    kw.setdefault("width", 64)
+    kw.setdefault("height", 32)
+    return Scene(**kw)
+
+
+def n_evaluated():
+    return sum(n for _, n, _ in CALLS)
+
+
+class TestPlanIsFollowed:
+    def test_below_horizon_not_evaluated(self):
+        s = scene()
+        img = ac.render(s, workers=1)
+        # rows 0..15 of 32 are above the horizon: exactly those directions reach the model
+        assert n_evaluated() == 16 * 64
+        assert all(zmin >= 0 for _, _, zmin in CALLS)
+        assert np.all(img.rgb[16:] == 0.0) and np.all(img.alpha[16:] == 0.0)
+        assert np.all(img.alpha[:16] == 1.0)
+
+    def test_elevated_observer_evaluates_below_horizon(self):
+        ac.render(scene(model="toy_slow", altitude=5000.0, symmetry="off"), workers=1)
+        assert n_evaluated() == 32 * 64
+
+    def test_values_match_model(self):
+        s = scene()
+        img = ac.render(s)
+        d = img.directions[:16]
+        y = toy_luminance(d.reshape(-1, 3), s.sun_direction()).reshape(16, 64)
+        np.testing.assert_allclose(img.luminance[:16], y, rtol=1e-6)
+        rgb = ac.XYZ_to_linear_rgb(np.stack([0.9505 * y, y, 1.089 * y], -1))
+        np.testing.assert_allclose(img.rgb[:16], rgb, rtol=1e-5)
+        assert img.rgb.dtype == np.float32
+
+    def test_luminance_only_asks_for_Y(self):
+        img = ac.render(scene(output="luminance"))
+        assert {q for q, _, _ in CALLS} == {"Y"}
+        assert img.rgb is None and img.xyz is None and img.luminance.shape == (32, 64)
+
+    def test_xyz_output(self):
+        img = ac.render(scene(output="xyz"))
+        assert img.xyz.shape == (32, 64, 3)
+        np.testing.assert_allclose(img.luminance, img.xyz[..., 1])
+
+    def test_mirror_symmetry_halves_the_work(self):
+        # sun azimuth 0: the latlong columns are mirror images of each other
+        s_off = scene(sun_azimuth_deg=0.0, symmetry="off")
+        ref = ac.render(s_off)
+        n_off = n_evaluated()
+        CALLS.clear()
+        img = ac.render(scene(sun_azimuth_deg=0.0, symmetry="on"))
+        n_on = n_evaluated()
+        assert n_off == 16 * 64 and n_on == 16 * 32
+        np.testing.assert_allclose(img.rgb, ref.rgb, rtol=1e-6)
+
+    def test_dome_is_symmetric_for_any_sun(self):
+        s = scene(projection="dome", width=24, height=8, sun_azimuth_deg=137.0)
+        ref = ac.render(s.replace_from_strings(["symmetry=off"]))
+        n_off = n_evaluated()
+        CALLS.clear()
+        img = ac.render(s.replace_from_strings(["symmetry=on"]))
+        assert n_evaluated() < 0.6 * n_off
+        np.testing.assert_allclose(img.rgb, ref.rgb, rtol=1e-6)
+        assert img.faces is not None and img.shape == (len(img.directions),)
+
+    def test_no_sun_disc_work_when_not_drawn(self, monkeypatch):
+        def boom(*a, **k):
+            raise AssertionError("sun disc evaluated although not drawn")
+
+        monkeypatch.setattr(render_mod, "sun_disc_radiance", boom)
+        ac.render(scene(sun_disc=False))
+        with pytest.raises(AssertionError, match="sun disc evaluated"):
+            ac.render(scene(sun_disc=True))
+
+    def test_fisheye_outside_circle_not_evaluated(self):
+        s = scene(projection="fisheye", width=40, height=40)
+        img = ac.render(s)
+        valid = img.directions_set.all_valid()
+        assert n_evaluated() == int(valid.sum())
+        assert np.all(img.alpha[~valid] == 0)
+
+    def test_threads_give_identical_results(self):
+        s = scene(width=128, height=64)
+        a = ac.render(s, workers=1, batch_size=300)
+        b = ac.render(s, workers=3, batch_size=300)
+        np.testing.assert_array_equal(a.rgb, b.rgb)
+
+    def test_render_given_directions(self):
+        d = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
+        img = ac.render(scene(), directions=d)
+        np.testing.assert_allclose(img.luminance, toy_luminance(d, scene().sun_direction()),
+                                   rtol=1e-6)
+
+
+class TestGround:
+    def test_ground_value_is_lambertian_under_the_model_sky(self):
+        s = scene(ground_albedo=0.3)
+        img = ac.render(s)
+        sun = s.sun_direction()
+
+        def integrand(phi, theta):
+            d = np.array([[math.sin(theta) * math.sin(phi), math.sin(theta) * math.cos(phi),
+                           math.cos(theta)]])
+            return toy_luminance(d, sun)[0] * math.cos(theta) * math.sin(theta)
+
+        e_h, _ = integrate.dblquad(integrand, 0, math.pi / 2, 0, 2 * math.pi, epsabs=1e-6)
+        expected = 0.3 * e_h / math.pi
+        np.testing.assert_allclose(img.luminance[20:], expected, rtol=1e-6)
+        assert np.all(img.alpha[20:] == 0)
+
+
+class TestSunDisc:
+    def test_disc_energy_and_limb_darkening(self):
+        s = scene(model="toy", sun_disc=True, sun_elevation_deg=40.0, projection="latlong",
+                  width=3072, height=1536, output="luminance")
+        p = plan(s)
+        y_c, alpha, _ = ac.sun_disc_radiance(s, p)
+        with_disc = ac.render(s)
+        without = ac.render(s.replace_from_strings(["sun_disc=false"]))
+        diff = (with_disc.luminance - without.luminance).ravel().astype(float)
+        om = with_disc.directions_set.solid_angles(0, with_disc.directions_set.size)
+        omega_sun = 2 * math.pi * (1 - math.cos(alpha))
+        # illuminance of the disc = L_centre * (1 - u/3) * Omega_sun (pixels resolve it)
+        expected = y_c[1] * (1 - ac.LIMB_DARKENING_U / 3) * omega_sun
+        assert (diff * om).sum() == pytest.approx(expected, rel=0.05)
+        # the brightest pixel: limb darkening 1 - u (1 - mu) at its distance from the centre
+        i = int(np.argmax(diff))
+        d = with_disc.directions_set.directions(i, i + 1)[0][0]
+        rho = math.acos(min(1.0, float(d @ p.sun_direction))) / alpha
+        ld = 1 - ac.LIMB_DARKENING_U * (1 - math.sqrt(1 - rho**2))
+        assert diff[i] == pytest.approx(y_c[1] * ld, rel=1e-5)
+
+    def test_small_disc_energy_goes_to_nearest_pixel(self):
+        s = scene(sun_disc=True, width=64, height=32, output="luminance")
+        img = ac.render(s)
+        base = ac.render(s.replace_from_strings(["sun_disc=false"]))
+        diff = (img.luminance - base.luminance).ravel().astype(float)
+        om = img.directions_set.solid_angles(0, img.directions_set.size)
+        y_c, alpha, _ = ac.sun_disc_radiance(s)
+        expected = y_c[1] * (1 - ac.LIMB_DARKENING_U / 3) * 2 * math.pi * (1 - math.cos(alpha))
+        assert np.count_nonzero(diff) == 1
+        assert (diff * om).sum() == pytest.approx(expected, rel=1e-5)
+
+    def test_transmittance_is_physical(self):
+        # clear, high sun: the direct beam at the ground is ~ 0.7-0.9 of the ETR at 550 nm
+        s = scene(sun_elevation_deg=60.0, turbidity=2.0)
+        _, alpha, (wl, L) = ac.sun_disc_radiance(s)
+        omega = 2 * math.pi * (1 - math.cos(alpha))
+        e_ground = L * omega * (1 - ac.LIMB_DARKENING_U / 3)
+        e_top = np.interp(wl, *solar_spectrum_table()) / plan(s).distance_au**2
+        t550 = np.interp(550.0, wl, e_ground / e_top)
+        assert 0.6 < t550 < 0.95
+        # sun below the horizon: no direct beam
+        xyz, _, _ = ac.sun_disc_radiance(scene(sun_elevation_deg=-2.0))
+        assert np.all(xyz == 0)
+
+
+class TestMemory:
+    def test_8k_latlong_streams_in_bounded_memory(self):
+        s = scene(width=8192, height=4096, output="luminance")
+        p = plan(s, batch_size=8192 * 8)
+        tracemalloc.start()
+        total = 0
+        try:
+            for start, stop, b in ac.render_batches(s, plan=p):
+                assert stop - start <= p.batch_size
+                assert b["values"].shape == (stop - start, 1)
+                total += stop - start
+            _, peak = tracemalloc.get_traced_memory()
+        finally:
+            tracemalloc.stop()
+        assert total == 8192 * 4096
+        # the whole map would be 32M directions (>= 800 MB as float64 vectors);
+        # a batch of 65536 directions needs a few MB
+        assert peak < 40e6, peak
+        # only the upper half reached the model
+        assert n_evaluated() == 8192 * 2048
+
+    def test_render_peak_is_output_plus_a_bound(self):
+        def peak_of(w, h):
+            s = scene(width=w, height=h, output="luminance")
+            tracemalloc.start()
+            try:
+                ac.render(s, batch_size=16384, workers=2)
+                return tracemalloc.get_traced_memory()[1]
+            finally:
+                tracemalloc.stop()
+
+        small, big = peak_of(512, 256), peak_of(2048, 1024)
+        out_small, out_big = 512 * 256 * 4 * 2, 2048 * 1024 * 4 * 2  # Y + alpha, float32
+        # overhead beyond the output does not grow with the resolution
+        assert (big - out_big) < (small - out_small) + 5e6
+        assert big - out_big < 20e6
+
+
+class TestSkyImage:
+    def test_to_numpy_and_xarray(self):
+        img = ac.render(scene(output="xyz", alpha=True))
+        arrays = img.to_numpy()
+        assert set(arrays) >= {"directions", "luminance", "rgb", "xyz", "alpha"}
+        xr = pytest.importorskip("xarray")
+        ds = img.to_xarray()
+        assert isinstance(ds, xr.Dataset)
+        assert ds["rgb"].shape == (32, 64, 3) and ds.attrs["turbidity"] == "2.5"
+
+    def test_metadata(self):
+        img = ac.render(scene(turbidity=3.0))
+        md = img.metadata
+        assert md["atmoscatter:package"] == "atmoscatter"
+        assert md["atmoscatter:version"] == ac.__version__
+        assert md["turbidity"] == "3.0" and md["model"] == "toy"
+        assert '"skip_below_horizon": true' in md["atmoscatter:plan"]
+        assert md["atmoscatter:error_estimate"]
+
+
+# ---------------------------------------------------------------------------
+# physical adapter, with a fake per-irradiance model (the real one is tested in its issue)
+# ---------------------------------------------------------------------------
+class FakePhysical:
+    """Records the atmosphere it receives and returns a chosen f(lambda) [sr^-1]."""
+
+    def __init__(self, law):
+        self.law = law
+        self.atmospheres = []
+        self.sizes = []
+
+    def __call__(self, atmosphere, view_directions, sun_direction, *, altitude=0.0, method=None,
+                 rtol=None):
+        self.atmospheres.append(atmosphere)
+        self.sizes.append(len(view_directions))
+        wl = atmosphere.wavelengths_array
+        return np.broadcast_to(self.law(wl), view_directions.shape[:-1] + (wl.size,)).copy()
+
+
+@pytest.fixture
+def fake_single(monkeypatch):
+    def install(law):
+        fake = FakePhysical(law)
+        monkeypatch.setattr(ac, "single_scattering", fake, raising=False)
+        register_model(physical_adapter("single_scattering"), replace=True)
+        return fake
+
+    yield install
+    unregister_model("single_scattering")
+
+
+def _independent_xyz(f_of_lambda, distance_au):
+    """K_m ∫ f(λ) E(λ) cmf(λ) dλ on the 1 nm CIE table (colour-science) and the raw ETR."""
+    import colour
+
+    cmfs = colour.MSDS_CMFS["CIE 1931 2 Degree Standard Observer"]
+    wl = np.arange(380.0, 781.0)
+    cm = np.stack([np.interp(wl, cmfs.wavelengths, cmfs.values[:, i]) for i in range(3)], -1)
+    e = np.interp(wl, *solar_spectrum_table()) / distance_au**2
+    return K_M * np.trapezoid(f_of_lambda(wl)[:, None] * e[:, None] * cm, wl, axis=0)
+
+
+class TestPhysicalAdapter:
+    def test_no_haze_constituent_at_turbidity_one(self, fake_single):
+        fake = fake_single(lambda wl: 1e-2 * (550.0 / wl) ** 4)
+        ac.render(scene(model="single_scattering", turbidity=1.0, width=16, height=8))
+        assert fake.atmospheres and all(
+            "mie" not in [c.name for c in a.constituents] for a in fake.atmospheres)
+        fake.atmospheres.clear()
+        ac.render(scene(model="single_scattering", turbidity=3.0, width=16, height=8))
+        assert "mie" in [c.name for c in fake.atmospheres[0].constituents]
+
+    def test_spectral_sampling_absolute_units(self, fake_single):
+        law = lambda wl: 0.02 * (550.0 / wl) ** 4  # noqa: E731
+        fake_single(law)
+        s = scene(model="single_scattering", sampling="spectral", wavelength_step=5.0,
+                  output="xyz", width=8, height=4, time="2024-01-03T12:00:00Z")
+        img = ac.render(s)
+        expected = _independent_xyz(law, plan(s).distance_au)
+        np.testing.assert_allclose(img.xyz[0, 0], expected, rtol=5e-3)
+
+    def test_rgb_sampling_power_law_is_exact(self, fake_single):
+        law = lambda wl: 0.02 * (550.0 / wl) ** 4  # noqa: E731
+        fake = fake_single(law)
+        s = scene(model="single_scattering", output="xyz", width=8, height=4)
+        img = ac.render(s)
+        assert fake.atmospheres[0].n_wavelengths == 3  # only the three RGB samples
+        expected = _independent_xyz(law, plan(s).distance_au)
+        np.testing.assert_allclose(img.xyz[0, 0], expected, rtol=5e-3)
+
+    def test_luminance_only_matches_Y(self, fake_single):
+        fake_single(lambda wl: 0.01 * (550.0 / wl) ** 2)
+        s = scene(model="single_scattering", width=8, height=4)
+        y = ac.render(s.replace_from_strings(["output=luminance"])).luminance
+        xyz = ac.render(s.replace_from_strings(["output=xyz"])).xyz
+        np.testing.assert_allclose(y, xyz[..., 1], rtol=1e-6)
+
+    def test_spectral_layers(self, fake_single):
+        law = lambda wl: 0.01 * np.ones_like(wl)  # noqa: E731
+        fake_single(law)
+        s = scene(model="single_scattering", output="spectral", wavelength_step=20.0,
+                  width=8, height=4)
+        img = ac.render(s)
+        assert img.spectral.shape == (4, 8, 21)
+        assert img.wavelengths[0] == 380.0 and img.wavelengths[-1] == 780.0
+        # radiance = f * band-averaged ETR
+        assert np.all(img.spectral[0, 0] > 0)
+        np.testing.assert_allclose(img.spectral[0, 0, 8], 0.01 * np.mean(
+            np.interp(np.linspace(530, 550, 2001), *solar_spectrum_table())) /
+            plan(s).distance_au**2, rtol=2e-3)
+
+    def test_symmetry_used_for_expensive_model(self, fake_single):
+        fake = fake_single(lambda wl: 0.01 * (550.0 / wl) ** 4)
+        s = scene(model="single_scattering", projection="dome", width=24, height=6)
+        img = ac.render(s)
+        assert plan(s).symmetry
+        assert sum(fake.sizes) < 0.6 * img.directions_set.size
+
+
+def test_rgb_sampling_matrix_reproduces_power_laws():
+    lam = np.array([680.0, 550.0, 440.0])
+    A = rgb_sampling_matrix(lam)
+    for p in (-4.0, -1.3, 0.0, 2.0):
+        np.testing.assert_allclose(np.exp(np.log(lam**p) @ A), FINE_GRID**p, rtol=1e-10)
+
+
+@pytest.mark.skipif("preetham" not in ac.MODELS, reason="preetham_sky has not landed")
+def test_default_scene_renders_preetham():
+    s = Scene(width=64, height=32)
+    img = ac.render(s)
+    assert img.metadata["model"] == "preetham"
+    sky = img.luminance[:16]
+    assert np.all(np.isfinite(sky)) and np.all(sky > 0)
+    # a clear sky is bluer than white at the zenith (B > R in linear sRGB)
+    assert img.rgb[0, 0, 2] > img.rgb[0, 0, 0]
