@@ -496,3 +496,33 @@ def test_default_switches_to_table_only_when_safe():
     few = v[:4096]
     np.testing.assert_array_equal(single_scattering(atm, few, tw),
                                   single_scattering(atm, few, tw, method="graded"))
+
+
+# ----------------------------------------------------------------------------------------
+# the error-against-run-time tool (smoke test; the full study is benchmarks/convergence.py)
+# ----------------------------------------------------------------------------------------
+def test_convergence_study_smoke(tmp_path):
+    from atmoscatter.convergence import (
+        CANONICAL_SCENES,
+        canonical_scene,
+        convergence_study,
+        samples_to_reach,
+        write_report,
+    )
+
+    for name in CANONICAL_SCENES:
+        atm, v, s, alt = canonical_scene(name, n_zenith=3, n_azimuth=2)
+        assert v.shape[-1] == 3 and np.allclose(np.linalg.norm(v, axis=-1), 1)
+    records, refs = convergence_study(
+        ["clear_noon"], {"keller_bohn": (4, 16), "midpoint": (4, 16), "graded": (3,)},
+        n_zenith=3, n_azimuth=2, reference_rtol=1e-6)
+    by = {(r.method, r.samples): r for r in records}
+    assert by["keller_bohn", 16].max_rel_error < by["keller_bohn", 4].max_rel_error
+    assert by["graded", 3].max_rel_error < 1e-3
+    assert all(r.rms_rel_error <= r.max_rel_error for r in records)
+    assert samples_to_reach(records, "clear_noon", "graded", 1.0) == 3.0
+    assert samples_to_reach(records, "clear_noon", "midpoint", 1e-12) == float("inf")
+    paths = write_report(records, refs, tmp_path)
+    for p in paths.values():
+        assert p.exists() and p.stat().st_size > 0
+    assert len(paths["csv"].read_text().strip().splitlines()) == len(records) + 1
