@@ -5,31 +5,39 @@ Modules are organised by physical topic (see ``docs/architecture.md``); each
 module defines ``__all__`` and is re-exported here, one line per module.
 """
 
+# ruff: noqa: I001  (re-exports are grouped by topic, not alphabetically)
 from __future__ import annotations
 
 __version__ = "0.1.0"
 
-# --- re-exports: one line per module (keep sorted within groups) -------------
+# --- re-exports: one line per module, grouped by topic --------------------------
 # foundation
 from .atmosphere import *  # noqa: F403
-from .batch import *  # noqa: F403
 from .colour import *  # noqa: F403
-from .directions import *  # noqa: F403
-from .exr import *  # noqa: F403
 from .geometry import *  # noqa: F403
-from .models import *  # noqa: F403
 from .optical_length import *  # noqa: F403
 from .phase import *  # noqa: F403
 from .presets import *  # noqa: F403
-from .preview import *  # noqa: F403
-from .render import *  # noqa: F403
 from .scattering import *  # noqa: F403
-
-# sun
-# analytic skies
-# numerical scattering
-# scenes, rendering, files, CLI
-from .scene import *  # noqa: F403
 from .solar import *  # noqa: F403
 from .standard_atmosphere import *  # noqa: F403
+# sun
+from .sun import *  # noqa: F403
+# analytic skies
+from .sky.aerial import *  # noqa: F403
+from .sky.cie import *  # noqa: F403
+from .sky.perez import *  # noqa: F403
+from .sky.preetham import *  # noqa: F403
+# numerical scattering
+from .sky.single import *  # noqa: F403
+# scenes, rendering, files, CLI
+from .scene import *  # noqa: F403
+from .directions import *  # noqa: F403
+from .models import *  # noqa: F403
+from .render import *  # noqa: F403
+from .exr import *  # noqa: F403
+from .preview import *  # noqa: F403
+from .batch import *  # noqa: F403
 # oracle toolkit
+from .integrals import *  # noqa: F403
+from .compare import *  # noqa: F403

@@ -138,14 +138,19 @@ def _matrices(colourspace: str):
 
     check_option(colourspace, "colourspace", colour.RGB_COLOURSPACES.keys())
     cs = colour.RGB_COLOURSPACES[colourspace]
-    return np.asarray(cs.matrix_XYZ_to_RGB, dtype=float), np.asarray(cs.matrix_RGB_to_XYZ, dtype=float)
+    # RGB → XYZ is the colourspace's (normalised primary) matrix; XYZ → RGB is its exact
+    # inverse, so the two conversions round-trip to rounding error.  (colour-science's
+    # sRGB carries the IEC 61966-2-1 matrices, each rounded to 4 decimals, which are
+    # inverses of each other only to 4e-5.)
+    rgb_to_xyz = np.asarray(cs.matrix_RGB_to_XYZ, dtype=float)
+    return np.linalg.inv(rgb_to_xyz), rgb_to_xyz
 
 
 def XYZ_to_linear_rgb(XYZ, colourspace: str = "sRGB"):
     """CIE XYZ → linear RGB (no transfer function) in ``colourspace``.
 
-    Uses the colourspace's normalised primary matrix from colour-science, without chromatic
-    adaptation: XYZ is taken as absolute (an equal-RGB pixel has the colourspace white's
+    Uses the inverse of the colourspace's normalised primary matrix from colour-science
+    (exact inverse of :func:`linear_rgb_to_XYZ`), without chromatic adaptation: XYZ is taken as absolute (an equal-RGB pixel has the colourspace white's
     chromaticity, D65 for sRGB).  Units follow the input (cd m⁻² in, cd m⁻² out, with
     ``Y = 0.2126 R + 0.7152 G + 0.0722 B`` for sRGB).  float32 in → float32 out.
     """

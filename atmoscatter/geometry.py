@@ -94,7 +94,9 @@ def ray_sphere_intersections(r, mu, radius):
     sq = safe_sqrt(disc)
     # q = −(b + sign(b)·√D); sign(0) taken as +1 so q ≠ 0 unless b = D = 0.
     q = -(b + np.where(b >= 0, sq, -sq))
-    with np.errstate(divide="ignore", invalid="ignore"):
+    # over: for a ray that misses (D < 0, √D clamped to 0) with a denormal b = rμ, c/q can
+    # overflow; that element is replaced by NaN below.
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         t1 = q
         t2 = np.where(q != 0, c / np.where(q != 0, q, 1), 0.0)
     t_near = np.where(hit, np.minimum(t1, t2), np.nan)
@@ -124,8 +126,10 @@ def ray_hits_ground(r, mu, planet_radius):
 
     A ray hits the ground iff it points downward (μ < 0) and its line passes within the
     planet radius, i.e. ``R² − r²(1 − μ²) >= 0`` (evaluated without cancellation).  A ray
-    exactly tangent to the ground counts as a hit.  Origins below the surface are invalid
-    input; they are reported as hitting.
+    from above the ground (``r > R``) exactly tangent to it counts as a hit; from the ground
+    itself (``r = R``) the horizontal ray (``μ = 0``) does not — it is the horizon ray,
+    which travels through the atmosphere.  Origins below the surface are invalid input;
+    they are reported as hitting.
     """
     r, mu, radius = _prep(r, mu, planet_radius)
     disc = _discriminant(r, mu, radius)

@@ -63,6 +63,18 @@ def _check_g(g) -> np.ndarray:
     return check_range(g, "g", -1.0, 1.0, low_inclusive=False, high_inclusive=False)
 
 
+def _out_dtype(mu: np.ndarray, g_raw):
+    """Result precision: that of ``cos_theta`` (float32 in → float32 out); a ``g`` array
+    (not a scalar parameter) takes part in the promotion."""
+    gd = np.asarray(g_raw).dtype if np.ndim(g_raw) > 0 else np.float32
+    return np.result_type(mu.dtype, gd, np.float32)
+
+
+def _finish(value, dtype):
+    out = np.asarray(value).astype(dtype, copy=False)
+    return out[()] if out.ndim == 0 else out
+
+
 def _hg_denominator(mu, g):
     # 1 + g² − 2gμ written as (1 − g)² + 2g(1 − μ): no cancellation when g → 1 and μ → 1
     # (forward peak) nor when g → −1 and μ → −1 (written symmetrically below).
@@ -101,7 +113,8 @@ def rayleigh_phase(cos_theta):
 def isotropic_phase(cos_theta):
     """Isotropic phase function ``1/(4π)`` [sr⁻¹], broadcast to the shape of ``cos_theta``."""
     mu = _cos(cos_theta)
-    return np.full_like(mu, _INV_4PI)
+    # NaN propagates element-wise like the other phase functions
+    return np.where(np.isnan(mu), mu, np.asarray(_INV_4PI, dtype=mu.dtype))[()]
 
 
 def henyey_greenstein_phase(cos_theta, g):
@@ -119,7 +132,8 @@ def henyey_greenstein_phase(cos_theta, g):
     Returns
     -------
     ndarray or float
-        Phase function value [sr⁻¹].
+        Phase function value [sr⁻¹], computed in float64 and returned in the precision of
+        ``cos_theta`` (float32 in → float32 out).
 
     Raises
     ------
@@ -139,8 +153,9 @@ def henyey_greenstein_phase(cos_theta, g):
     1.0
     """
     mu = _cos(cos_theta)
-    g = _check_g(g)
-    return (1.0 - g) * (1.0 + g) * _INV_4PI / _hg_denominator(mu, g) ** 1.5
+    dtype = _out_dtype(mu, g)
+    mu64, g = mu.astype(np.float64), _check_g(g).astype(np.float64)
+    return _finish((1.0 - g) * (1.0 + g) * _INV_4PI / _hg_denominator(mu64, g) ** 1.5, dtype)
 
 
 def cornette_shanks_phase(cos_theta, g):
@@ -164,7 +179,8 @@ def cornette_shanks_phase(cos_theta, g):
     Returns
     -------
     ndarray or float
-        Phase function value [sr⁻¹]; integrates to 1 over the sphere (to 1e-10).
+        Phase function value [sr⁻¹]; integrates to 1 over the sphere (to 1e-10).  Computed
+        in float64, returned in the precision of ``cos_theta``.
 
     Raises
     ------
@@ -172,13 +188,15 @@ def cornette_shanks_phase(cos_theta, g):
         If ``|g| >= 1``.
     """
     mu = _cos(cos_theta)
-    g = _check_g(g)
-    return (
+    dtype = _out_dtype(mu, g)
+    mu, g = mu.astype(np.float64), _check_g(g).astype(np.float64)
+    return _finish(
         (3.0 / (8.0 * np.pi))
         * (1.0 - g)
         * (1.0 + g)
         * (1.0 + mu * mu)
-        / ((2.0 + g * g) * _hg_denominator(mu, g) ** 1.5)
+        / ((2.0 + g * g) * _hg_denominator(mu, g) ** 1.5),
+        dtype,
     )
 
 

@@ -69,7 +69,7 @@ def extraterrestrial_irradiance(wavelength, *, distance_au=1.0):
     Examples
     --------
     >>> round(float(extraterrestrial_irradiance(550.0)), 3)
-    1.86
+    1.863
     """
     lam = check_positive(as_float_array(wavelength, "wavelength"), "wavelength", unit="nm")
     wl, e = solar_spectrum_table()

@@ -91,14 +91,29 @@ def us_standard_1976_profile(step: float = 1000.0, top: float = 86000.0) -> Tabu
     Parameters
     ----------
     step : float
-        Tabulation step [m] (default 1 km).  Between nodes the density is interpolated
-        log-linearly, which matches the standard to < 0.25 % at 1 km spacing (0.06 % at 500 m).
+        Tabulation step [m] (default 1 km).  The geometric altitudes of the standard's layer
+        boundaries (where the lapse rate changes: 11.02, 20.06, 32.16, 47.35, 51.41,
+        71.80 km) replace the nearest regular node.  Between nodes the density is
+        interpolated log-linearly, which matches the standard to < 0.05 % at 1 km spacing
+        (< 0.015 % at 500 m); measured in ``tests/test_standard_atmosphere.py``.  Without
+        the boundary nodes the error would be 0.24 % at 1 km.
     top : float
         Highest altitude [m] (≤ 86 km); above it the density is 0.
     """
     step = float(check_positive(step, "step", unit="m"))
     top = float(check_range(top, "top", step, 86000.0, unit="m"))
-    z = np.arange(0.0, top + 0.5 * step, step)
-    z[-1] = min(z[-1], top)
+    z = np.arange(0.0, top, step)
+    z = np.append(z[z < top - 0.1 * step], top)  # always end exactly at ``top``
+    # layer boundaries (geopotential → geometric altitude) are kinks of log ρ: make them
+    # nodes by moving the nearest interior node onto each (node gaps stay within
+    # [step/2, 3·step/2]); a boundary whose nearest node is an end node is inserted unless
+    # it lies within step/10 of it
+    zb = _R_EARTH * _HB / (_R_EARTH - _HB)
+    for b in zb[(zb > 0.0) & (zb < top)]:
+        i = int(np.argmin(np.abs(z - b)))
+        if 0 < i < z.size - 1:
+            z[i] = b
+        elif abs(z[i] - b) >= 0.1 * step:
+            z = np.sort(np.append(z, b))
     _, _, rho = us_standard_atmosphere_1976(z)
     return TabulatedProfile(tuple(z), tuple(rho / rho[0]))

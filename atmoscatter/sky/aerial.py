@@ -1,0 +1,575 @@
+"""Hoffman–Preetham aerial perspective, sunlight and two-shell sky (seed 000, seed 004).
+
+Public objects
+--------------
+one_minus_exp_ratio
+    ``(1 − e^{−x})/x`` without cancellation near 0 or overflow far out.
+path_integral
+    ``∫₀^s e^{−β t} dt = (1 − e^{−β s})/β`` with its limits (β → 0: ``s``; s → ∞: ``1/β``).
+HazePreset, HAZE_PRESETS
+    Haze/fog parameters of seed 000 Table 1 (errata 000.3), with the g each one assumes.
+HOFFMAN_PREETHAM_WAVELENGTHS, hoffman_preetham_air_scattering
+    The R, G, B sample wavelengths of seed 000 (650, 570, 475 nm) and air's Rayleigh
+    coefficients there (6.95e-6, 1.18e-5, 2.44e-5 m⁻¹, errata 000.4).
+hoffman_preetham_extinction
+    ``F_ex(s_air, s_haze) = e^{−(β_exAir s_air + β_exHaze s_haze)}`` (Eq. 3 and its two-length form).
+hoffman_preetham_inscattering
+    In-scattered radiance (Eq. 4; two-shell form of errata 000.6 for ``s_air ≠ s_haze``).
+hoffman_preetham_sunlight
+    ``E_sun`` after extinction along the Iqbal optical lengths (8.4 km air, 1.25 km haze).
+hoffman_preetham_sky
+    The two-shell sky on a sky mesh sized by the air optical length (seed 000 "Sky Color").
+aerial_perspective
+    ``F_ex L_0 + L_in`` (Eq. 1) for arrays such as a depth buffer.
+solar_illuminance_rgb
+    Default ``E_sun⁰``: the ASTM G-173 extraterrestrial spectrum as linear RGB [lx].
+
+Model (seed 000)
+----------------
+Constant-density medium of air (Rayleigh, no absorption) and haze (Henyey–Greenstein with
+asymmetry g > 0 = forward, errata 000.2; optional absorption), single scattering of sunlight
+only::
+
+    F_ex = e^{−β_ex s}                                                     (Eq. 3)
+    L_in(s, θ) = E_sun β_sc(θ)/β_ex (1 − e^{−β_ex s})                      (Eq. 4)
+    β_sc(θ) = β_scAir f_R(θ) + β_scHaze f_HG(θ, g),   β_ex = β_exAir + β_exHaze
+    L = F_ex L_0 + L_in                                                    (Eq. 1)
+
+θ is the angle between the view direction and the direction toward the sun. Each
+``(1 − e^{−β s})/β`` is evaluated as :func:`path_integral` (``−expm1(−βs)/β``, limit ``s`` for
+β = 0), so the model is exact and finite for β s from 0 through 1e-12 to 1e4 and beyond.
+
+Units: ``E_sun`` is an irradiance-like quantity per channel (default: linear-RGB
+illuminance [lx] of the extraterrestrial sun, so ``L_in`` is in cd m⁻², the units of
+:func:`atmoscatter.preetham_sky_rgb`); coefficients in m⁻¹; distances in m.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from functools import lru_cache
+
+import numpy as np
+
+from .._validate import as_float_array, check_option, check_positive, check_range
+from ..colour import XYZ_to_linear_rgb, spectral_to_XYZ
+from ..optical_length import relative_optical_length
+from ..phase import henyey_greenstein_phase, rayleigh_phase
+from ..scattering import rayleigh_scattering
+from ..solar import extraterrestrial_irradiance
+from .preetham import _sun, _views
+
+__all__ = [
+    "HOFFMAN_PREETHAM_WAVELENGTHS",
+    "AIR_ZENITH_OPTICAL_LENGTH",
+    "HAZE_ZENITH_OPTICAL_LENGTH",
+    "HazePreset",
+    "HAZE_PRESETS",
+    "one_minus_exp_ratio",
+    "path_integral",
+    "hoffman_preetham_air_scattering",
+    "solar_illuminance_rgb",
+    "hoffman_preetham_extinction",
+    "hoffman_preetham_inscattering",
+    "hoffman_preetham_sunlight",
+    "hoffman_preetham_sky",
+    "aerial_perspective",
+]
+
+#: R, G, B sample wavelengths of seed 000 ("Air Molecules and Rayleigh Scattering"). [nm]
+HOFFMAN_PREETHAM_WAVELENGTHS: tuple[float, float, float] = (650.0, 570.0, 475.0)
+#: Optical length of the atmosphere at the zenith for air molecules (seed 000 "Sunlight";
+#: seed 004 "Atmosphere"). [m]
+AIR_ZENITH_OPTICAL_LENGTH: float = 8400.0
+#: Optical length at the zenith for haze (seed 000: "a reasonable value"; seed 004). [m]
+HAZE_ZENITH_OPTICAL_LENGTH: float = 1250.0
+
+
+@dataclass(frozen=True)
+class HazePreset:
+    """Haze parameters for the Hoffman–Preetham model.
+
+    Attributes
+    ----------
+    name : str
+        Identifier (key of :data:`HAZE_PRESETS`).
+    scattering : tuple of float
+        ``β_scHaze`` at the R, G, B wavelengths of seed 000 (650, 570, 475 nm). [m⁻¹]
+    g : float
+        Henyey–Greenstein asymmetry, ``0 ≤ g < 1`` (forward scattering). [1]
+    absorption : tuple of float
+        ``β_abHaze`` at R, G, B (seed 000: 0 to about 5e-5, usually negligible). [m⁻¹]
+    note : str
+        Provenance.
+    """
+
+    name: str
+    scattering: tuple[float, float, float]
+    g: float
+    absorption: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    note: str = ""
+
+    def __post_init__(self):
+        check_positive(self.scattering, "scattering", allow_zero=True, unit="m^-1")
+        check_positive(self.absorption, "absorption", allow_zero=True, unit="m^-1")
+        check_range(self.g, "g", -1.0, 1.0, low_inclusive=False, high_inclusive=False)
+        if np.shape(self.scattering) != (3,) or np.shape(self.absorption) != (3,):
+            raise ValueError("scattering and absorption must have 3 values (R, G, B)")
+
+    @property
+    def extinction(self) -> np.ndarray:
+        """``β_exHaze = β_scHaze + β_abHaze`` at R, G, B. [m⁻¹]"""
+        return np.asarray(self.scattering) + np.asarray(self.absorption)
+
+
+_TABLE1 = (
+    "Seed 000 Table 1 as corrected by errata 000.3 (scattering columns R, G, B at 650, 570, "
+    "475 nm). The table's g column is unreadable; g is OUR INTERPRETATION, chosen to grow with "
+    "β as the text says and positive (forward) per errata 000.2: "
+)
+#: Haze presets from seed 000 Table 1 (errata 000.3). The scattering values are the table's;
+#: the asymmetry g of each is an interpretation (the column is garbled), absorption is 0.
+HAZE_PRESETS: dict[str, HazePreset] = {
+    "light_haze": HazePreset(
+        "light_haze", (2e-5, 3e-5, 4e-5), 0.70, note=_TABLE1 + "g = 0.70 (typical aerosol)."
+    ),
+    "heavy_haze": HazePreset(
+        "heavy_haze", (8e-5, 1e-4, 1.2e-4), 0.75, note=_TABLE1 + "g = 0.75."
+    ),
+    "light_fog": HazePreset(
+        "light_fog", (9e-4, 1e-3, 1.1e-3), 0.80, note=_TABLE1 + "g = 0.80."
+    ),
+    "heavy_fog": HazePreset(
+        "heavy_fog", (1e-2, 1e-2, 1e-2), 0.85, note=_TABLE1 + "g = 0.85 (fog droplets)."
+    ),
+}
+
+
+# ----------------------------------------------------------------------------------------------
+# numerics
+# ----------------------------------------------------------------------------------------------
+def one_minus_exp_ratio(x):
+    """``(1 − e^{−x})/x`` for ``x ≥ 0``, with the limit 1 at ``x = 0``.
+
+    Evaluated as ``−expm1(−x)/x`` (relative error ~1 ulp for every x > 0: no cancellation
+    as x → 0, no overflow as x → ∞, where it tends to ``1/x``).
+
+    Parameters
+    ----------
+    x : array_like
+        Optical thickness ``β s`` ≥ 0 (``inf`` gives 0). [1]
+
+    Returns
+    -------
+    numpy.ndarray or float
+        The ratio, in (0, 1]. NaN in gives NaN.
+    """
+    x = as_float_array(x, "x")
+    with np.errstate(invalid="ignore"):
+        if np.any(x < 0):
+            raise ValueError(f"x must be >= 0, got {x[x < 0].ravel()[0] if x.ndim else x.item()!r}")
+        safe = np.where(x > 0, x, 1.0)
+        out = np.where(x > 0, -np.expm1(-safe) / safe, np.where(np.isnan(x), np.nan, 1.0))
+    out = out.astype(x.dtype, copy=False)
+    return out[()] if out.ndim == 0 else out
+
+
+def path_integral(beta, s):
+    """``∫₀^s e^{−β t} dt = (1 − e^{−β s})/β`` with its limits, broadcasting.
+
+    ``−expm1(−β s)/β`` for β s > 0, and the limit ``s`` for β = 0 (or s = 0). Finite for
+    ``s = inf`` and β > 0 (``1/β``). Inputs ≥ 0.
+
+    Parameters
+    ----------
+    beta : array_like
+        Extinction coefficient ≥ 0. [m⁻¹]
+    s : array_like
+        Path length ≥ 0 (may be ``inf``). [m]
+
+    Returns
+    -------
+    numpy.ndarray
+        The integral. [m]
+    """
+    beta = as_float_array(beta, "beta")
+    s = as_float_array(s, "s")
+    with np.errstate(invalid="ignore", over="ignore"):
+        x = beta * s
+        ok = (x > 0) & np.isfinite(beta) & (beta > 0)
+        out = np.where(ok, -np.expm1(-np.where(ok, x, 1.0)) / np.where(ok, beta, 1.0), s)
+    # beta > 0 with s = 0: x = 0 -> s = 0 (the limit); beta = 0 with s = inf -> inf.
+    return out
+
+
+# ----------------------------------------------------------------------------------------------
+# coefficients and sunlight
+# ----------------------------------------------------------------------------------------------
+def hoffman_preetham_air_scattering(wavelengths=HOFFMAN_PREETHAM_WAVELENGTHS) -> np.ndarray:
+    """Air's Rayleigh scattering coefficient with seed 000's constants.
+
+    ``n = 1.0003``, ``N = 2.545e25 m⁻³``, ``p_n = 0.035`` (via
+    :func:`atmoscatter.rayleigh_scattering`); at 650, 570, 475 nm:
+    6.95e-6, 1.18e-5, 2.44e-5 m⁻¹ (errata 000.4). [m⁻¹]
+    """
+    return np.asarray(rayleigh_scattering(np.asarray(wavelengths, dtype=np.float64)))
+
+
+@lru_cache(maxsize=16)
+def _solar_rgb(colourspace: str) -> np.ndarray:
+    wl = np.arange(360.0, 831.0, 1.0)
+    XYZ = spectral_to_XYZ(extraterrestrial_irradiance(wl), wl)
+    rgb = np.asarray(XYZ_to_linear_rgb(XYZ, colourspace=colourspace), dtype=np.float64)
+    rgb.flags.writeable = False
+    return rgb
+
+
+def solar_illuminance_rgb(colourspace: str = "sRGB") -> np.ndarray:
+    """Extraterrestrial solar illuminance as linear RGB (the default ``E_sun⁰``).
+
+    The ASTM G-173 ETR spectrum (:func:`atmoscatter.extraterrestrial_irradiance`, 1 AU),
+    integrated with the CIE 1931 CMFs at 683 lm/W (Y ≈ 133 klx, cf. the luminous solar
+    constant 133.8 klx of Darula, Kittler & Gueymard 2005) and converted to linear RGB of
+    ``colourspace``. [lx]
+    """
+    return _solar_rgb(colourspace).copy()
+
+
+def _coefficients(haze, air_scattering, beta_sc_haze=None, beta_ab_haze=None, g=None):
+    """Resolve (β_scAir, β_exAir, β_scHaze, β_exHaze, g) as float64 arrays (C,)."""
+    b_air = (
+        hoffman_preetham_air_scattering()
+        if air_scattering is None
+        else check_positive(air_scattering, "air_scattering", allow_zero=True, unit="m^-1")
+    )
+    if haze is None:
+        preset = HazePreset("none", (0.0, 0.0, 0.0), 0.0)
+    elif isinstance(haze, HazePreset):
+        preset = haze
+    else:
+        check_option(haze, "haze", HAZE_PRESETS)
+        preset = HAZE_PRESETS[haze]
+    sc = np.asarray(preset.scattering if beta_sc_haze is None else beta_sc_haze, dtype=np.float64)
+    ab = np.asarray(preset.absorption if beta_ab_haze is None else beta_ab_haze, dtype=np.float64)
+    check_positive(sc, "haze_scattering", allow_zero=True, unit="m^-1")
+    check_positive(ab, "haze_absorption", allow_zero=True, unit="m^-1")
+    gg = preset.g if g is None else float(check_range(g, "g", -1.0, 1.0, low_inclusive=False, high_inclusive=False))
+    return np.asarray(b_air, np.float64), np.asarray(b_air, np.float64), sc, sc + ab, gg
+
+
+def hoffman_preetham_sunlight(
+    sun_zenith,
+    beta_ex_air,
+    beta_ex_haze,
+    *,
+    sun_irradiance=None,
+    air_zenith_length=AIR_ZENITH_OPTICAL_LENGTH,
+    haze_zenith_length=HAZE_ZENITH_OPTICAL_LENGTH,
+    method="iqbal",
+):
+    """Sunlight after extinction, ``E_sun = E_sun⁰ F_ex(s_air, s_haze)`` (seed 000 "Sunlight").
+
+    ``s_air = 8.4 km · m(θ_s)``, ``s_haze = 1.25 km · m(θ_s)`` with ``m`` the relative
+    optical length of seed 000 Eq. 5 (:func:`atmoscatter.relative_optical_length`,
+    ``method="iqbal"``).
+
+    Parameters
+    ----------
+    sun_zenith : array_like
+        Solar zenith angle ≥ 0; above π/2 (sun below the horizon) ``E_sun = 0``. [rad]
+    beta_ex_air, beta_ex_haze : array_like
+        Extinction coefficients per channel (last axis). [m⁻¹]
+    sun_irradiance : array_like, optional
+        ``E_sun⁰`` per channel; default :func:`solar_illuminance_rgb` (3 channels). [lx or
+        the caller's unit]
+    air_zenith_length, haze_zenith_length : float
+        Zenith optical lengths (defaults 8400 m and 1250 m, seed 000). [m]
+    method : {"iqbal", "kasten_young"}
+        Relative optical length formula.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``E_sun``, shape ``sun_zenith.shape + (C,)``.
+    """
+    ts = as_float_array(sun_zenith, "sun_zenith")
+    b_air = check_positive(beta_ex_air, "beta_ex_air", allow_zero=True, unit="m^-1")
+    b_haze = check_positive(beta_ex_haze, "beta_ex_haze", allow_zero=True, unit="m^-1")
+    E0 = solar_illuminance_rgb() if sun_irradiance is None else as_float_array(sun_irradiance, "sun_irradiance")
+    la = float(check_positive(air_zenith_length, "air_zenith_length", allow_zero=True, unit="m"))
+    lh = float(check_positive(haze_zenith_length, "haze_zenith_length", allow_zero=True, unit="m"))
+    m = np.asarray(relative_optical_length(ts, method=method))[..., None]
+    tau = b_air * (la * m) + b_haze * (lh * m)
+    E = E0 * np.exp(-tau)
+    return np.where(ts[..., None] > np.pi / 2, 0.0, E)
+
+
+# ----------------------------------------------------------------------------------------------
+# extinction and in-scattering
+# ----------------------------------------------------------------------------------------------
+def hoffman_preetham_extinction(s_air, s_haze, beta_ex_air, beta_ex_haze):
+    """Extinction factor ``F_ex = e^{−(β_exAir s_air + β_exHaze s_haze)}`` (seed 000 Eq. 3).
+
+    Parameters
+    ----------
+    s_air, s_haze : array_like
+        Optical lengths (or distances in a constant-density medium) for air and haze ≥ 0;
+        a trailing channel axis is added. [m]
+    beta_ex_air, beta_ex_haze : array_like
+        Extinction coefficients per channel (last axis). [m⁻¹]
+
+    Returns
+    -------
+    numpy.ndarray
+        ``F_ex`` in [0, 1], shape ``broadcast(s_air, s_haze).shape + (C,)``; exactly 1 at 0.
+    """
+    sa = _nonneg(s_air, "s_air")
+    sh = _nonneg(s_haze, "s_haze")
+    ba = check_positive(beta_ex_air, "beta_ex_air", allow_zero=True, unit="m^-1")
+    bh = check_positive(beta_ex_haze, "beta_ex_haze", allow_zero=True, unit="m^-1")
+    with np.errstate(invalid="ignore"):
+        tau = _mul(ba, sa[..., None]) + _mul(bh, sh[..., None])
+    return np.exp(-tau)
+
+
+def _nonneg(a, name):
+    """``a`` as a float array, rejecting negative values (``inf`` allowed; NaN propagates)."""
+    arr = as_float_array(a, name)
+    bad = ~(arr >= 0) & ~np.isnan(arr)
+    if np.any(bad):
+        raise ValueError(f"{name} must be in [0, inf] m, got {arr[bad].ravel()[0]!r}")
+    return arr
+
+
+def _mul(beta, s):
+    """``β s`` with ``0 · inf = 0`` (a transparent constituent over an infinite path)."""
+    with np.errstate(invalid="ignore"):
+        return np.where(beta == 0, 0.0, beta * s)
+
+
+def _phase_terms(cos_theta, b_sc_air, b_sc_haze, g):
+    """Angular scattering coefficients ``β_scAir f_R(θ)`` and ``β_scHaze f_HG(θ)``. [m⁻¹ sr⁻¹]"""
+    mu = np.asarray(cos_theta)[..., None]
+    air = b_sc_air * rayleigh_phase(mu)
+    haze = b_sc_haze * henyey_greenstein_phase(mu, g)
+    return air, haze
+
+
+def _two_shell(sa, sh, air_t, haze_t, ba, bh):
+    """Two-shell in-scattering integral per unit E_sun (errata 000.6), general s_air, s_haze.
+
+    The inner shell (length ``s1 = min(s_air, s_haze)``) holds both constituents; the outer
+    one (``|s_air − s_haze|``) only the constituent with the longer optical length. Each
+    ``(1 − e^{−βs})/β`` is a :func:`path_integral`.
+    """
+    sa = sa[..., None]
+    sh = sh[..., None]
+    s1 = np.minimum(sa, sh)
+    b_tot = ba + bh
+    inner = (air_t + haze_t) * path_integral(b_tot, s1)
+    with np.errstate(invalid="ignore"):
+        outer_len = np.where(sa >= sh, sa - s1, sh - s1)
+        outer_len = np.where(np.isinf(sa) & np.isinf(sh), 0.0, outer_len)
+    outer_t = np.where(sa >= sh, air_t, haze_t)
+    outer_b = np.where(sa >= sh, ba, bh)
+    outer = outer_t * path_integral(outer_b, outer_len) * np.exp(-_mul(b_tot, s1))
+    return inner + outer
+
+
+def hoffman_preetham_inscattering(
+    s_air,
+    s_haze,
+    cos_theta,
+    sun_irradiance,
+    beta_sc_air,
+    beta_ex_air,
+    beta_sc_haze,
+    beta_ex_haze,
+    g,
+):
+    r"""In-scattered radiance ``L_in`` of air + haze (seed 000 Eq. 4; errata 000.6).
+
+    For ``s_air = s_haze = s`` (aerial perspective in a constant-density medium) this is Eq. 4
+    with the two constituents summed:
+
+    .. math:: L_\mathrm{in} = E_\mathrm{sun}\,(\beta_\mathrm{scAir}(\theta) +
+              \beta_\mathrm{scHaze}(\theta))\,\frac{1 - e^{-\beta_\mathrm{ex} s}}{\beta_\mathrm{ex}}
+
+    For ``s_air ≠ s_haze`` it is the two-shell form (errata 000.6): an inner shell of length
+    ``min(s_air, s_haze)`` with both constituents and an outer shell with only the one whose
+    optical length is longer, attenuated by the inner shell.
+
+    Parameters
+    ----------
+    s_air, s_haze : array_like
+        Optical lengths ≥ 0 (may be ``inf``), broadcasting. [m]
+    cos_theta : array_like
+        Cosine of the angle between view direction and direction toward the sun. [1]
+    sun_irradiance : array_like
+        ``E_sun`` per channel (last axis). [lx or the caller's unit]
+    beta_sc_air, beta_ex_air, beta_sc_haze, beta_ex_haze : array_like
+        Scattering and extinction coefficients per channel (last axis), ≥ 0. [m⁻¹]
+    g : float
+        Henyey–Greenstein asymmetry of haze, ``|g| < 1`` (g > 0 forward). [1]
+
+    Returns
+    -------
+    numpy.ndarray
+        ``L_in`` [E_sun units sr⁻¹, e.g. cd m⁻²], shape broadcast + (C,). Exactly 0 at zero
+        length; for β_ex → 0 the limit ``E_sun β_sc(θ) s``; finite for ``s → ∞``.
+    """
+    sa = _nonneg(s_air, "s_air")
+    sh = _nonneg(s_haze, "s_haze")
+    E = as_float_array(sun_irradiance, "sun_irradiance")
+    b_sa = check_positive(beta_sc_air, "beta_sc_air", allow_zero=True, unit="m^-1")
+    b_ea = check_positive(beta_ex_air, "beta_ex_air", allow_zero=True, unit="m^-1")
+    b_sh = check_positive(beta_sc_haze, "beta_sc_haze", allow_zero=True, unit="m^-1")
+    b_eh = check_positive(beta_ex_haze, "beta_ex_haze", allow_zero=True, unit="m^-1")
+    air_t, haze_t = _phase_terms(as_float_array(cos_theta, "cos_theta"), b_sa, b_sh, g)
+    return E * _two_shell(sa, sh, air_t, haze_t, b_ea, b_eh)
+
+
+# ----------------------------------------------------------------------------------------------
+# sky and aerial perspective
+# ----------------------------------------------------------------------------------------------
+def _unit(v):
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return v / np.sqrt(np.sum(v * v, axis=-1, keepdims=True))
+
+
+def hoffman_preetham_sky(
+    view_directions,
+    sun_direction,
+    *,
+    haze="light_haze",
+    sun_irradiance=None,
+    air_scattering=None,
+    g=None,
+    air_zenith_length=AIR_ZENITH_OPTICAL_LENGTH,
+    haze_zenith_length=HAZE_ZENITH_OPTICAL_LENGTH,
+):
+    """Two-shell sky radiance of seed 000 ("Sky Color"; errata 000.6).
+
+    The sky mesh is sized by the air optical length in every direction,
+    ``s_air = 8.4 km · m(θ_v)`` (seed 000 Eq. 5, ``m`` = Iqbal relative optical length), with
+    ``s_haze = s_air · 1.25/8.4`` (the constant ratio of the seed); the radiance is
+    ``L_in(s_air, s_haze, θ)`` with ``E_sun`` from :func:`hoffman_preetham_sunlight`. The
+    starting colour is black (space), so no extinction factor is applied.
+
+    Parameters
+    ----------
+    view_directions : array_like
+        Directions (..., 3), x = east, y = north, z = up; views below the horizon use the
+        horizon optical length (the Iqbal formula's value at 90°).
+    sun_direction : array_like
+        Direction toward the sun (3,); below the horizon the sky is black (E_sun = 0).
+    haze : str or HazePreset or None
+        A key of :data:`HAZE_PRESETS`, a :class:`HazePreset`, or None (pure air).
+    sun_irradiance : array_like, optional
+        ``E_sun⁰`` (R, G, B) outside the atmosphere; default :func:`solar_illuminance_rgb`.
+    air_scattering : array_like, optional
+        ``β_scAir`` (R, G, B); default seed 000's Rayleigh values. [m⁻¹]
+    g : float, optional
+        Override of the preset's haze asymmetry.
+    air_zenith_length, haze_zenith_length : float
+        Zenith optical lengths (8400 m, 1250 m). [m]
+
+    Returns
+    -------
+    numpy.ndarray
+        Sky radiance (..., 3) [cd m⁻² with the default ``E_sun⁰``].
+    """
+    v = _views(view_directions)
+    sun = _sun(sun_direction)
+    b_sa, b_ea, b_sh, b_eh, gg = _coefficients(haze, air_scattering, g=g)
+    la = float(check_positive(air_zenith_length, "air_zenith_length", unit="m"))
+    lh = float(check_positive(haze_zenith_length, "haze_zenith_length", allow_zero=True, unit="m"))
+    ts = math.acos(min(max(sun[2], -1.0), 1.0))
+    E = hoffman_preetham_sunlight(
+        ts, b_ea, b_eh, sun_irradiance=sun_irradiance, air_zenith_length=la, haze_zenith_length=lh
+    )
+    vh = _unit(v.astype(np.float64))
+    nan = np.isnan(vh).any(axis=-1)
+    vz = np.where(nan, 1.0, vh[..., 2])
+    theta_v = np.arccos(np.clip(vz, -1.0, 1.0))
+    s_air = la * np.asarray(relative_optical_length(theta_v))
+    s_haze = s_air * (lh / la)
+    mu = np.where(nan, 0.0, np.clip(vh @ sun, -1.0, 1.0))
+    air_t, haze_t = _phase_terms(mu, b_sa, b_sh, gg)
+    L = E * _two_shell(s_air, s_haze, air_t, haze_t, b_ea, b_eh)
+    L = np.where(nan[..., None], np.nan, L)
+    return L.astype(v.dtype, copy=False)
+
+
+_AP_OPTIONS = ("haze", "sun_irradiance", "sun_extinction", "air_scattering", "haze_scattering",
+               "haze_absorption", "g")  # fmt: skip
+
+
+def aerial_perspective(L0, distance, view_direction, sun_direction, **options):
+    """Aerial perspective ``L = F_ex L_0 + L_in`` (seed 000 Eq. 1, 3, 4; seed 004).
+
+    Constant-density air + haze along the view ray (``s_air = s_haze = distance``), sunlight
+    in-scattered with the Rayleigh and Henyey–Greenstein phase functions.
+
+    Parameters
+    ----------
+    L0 : array_like
+        Radiance of the object, linear RGB, shape (..., 3) [cd m⁻² with the default E_sun⁰].
+    distance : array_like
+        Distance from the eye to the object, shape (...) broadcasting with ``L0[..., 0]``;
+        ``>= 0`` (``inf`` allowed: pure in-scattering). [m]
+    view_direction : array_like
+        Direction from the eye toward the object, (..., 3) or (3,) (normalised internally).
+    sun_direction : array_like
+        Direction toward the sun, (3,), x = east, y = north, z = up.
+    **options
+        ``haze`` (preset name, :class:`HazePreset` or None; default ``"light_haze"``),
+        ``sun_irradiance`` (E_sun⁰, R, G, B; default :func:`solar_illuminance_rgb`),
+        ``sun_extinction`` (bool, default True: attenuate E_sun⁰ along the Iqbal optical
+        lengths, :func:`hoffman_preetham_sunlight`; False: use ``sun_irradiance`` as E_sun),
+        ``air_scattering``, ``haze_scattering``, ``haze_absorption`` (R, G, B [m⁻¹]) and
+        ``g`` overriding the preset.
+
+    Returns
+    -------
+    numpy.ndarray
+        Radiance at the eye, shape (..., 3); exactly ``L0`` where ``distance == 0``.
+        float32 ``L0`` gives float32.
+    """
+    unknown = sorted(set(options) - set(_AP_OPTIONS))
+    if unknown:
+        raise TypeError(f"aerial_perspective got unknown option(s) {unknown}; valid: {sorted(_AP_OPTIONS)}")
+    L0a = as_float_array(L0, "L0")
+    if L0a.ndim == 0 or L0a.shape[-1] != 3:
+        raise ValueError(f"L0 must have shape (..., 3) (linear RGB), got shape {L0a.shape}")
+    d = _nonneg(distance, "distance")
+    v = _views(view_direction)
+    sun = _sun(sun_direction)
+    b_sa, b_ea, b_sh, b_eh, gg = _coefficients(
+        options.get("haze", "light_haze"),
+        options.get("air_scattering"),
+        options.get("haze_scattering"),
+        options.get("haze_absorption"),
+        options.get("g"),
+    )
+    if options.get("sun_extinction", True):
+        ts = math.acos(min(max(sun[2], -1.0), 1.0))
+        E = hoffman_preetham_sunlight(ts, b_ea, b_eh, sun_irradiance=options.get("sun_irradiance"))
+    else:
+        E = solar_illuminance_rgb() if options.get("sun_irradiance") is None else as_float_array(
+            options["sun_irradiance"], "sun_irradiance"
+        )
+    vh = _unit(v.astype(np.float64))
+    bad_dir = np.isnan(vh).any(axis=-1)  # NaN or zero-length view directions
+    mu = np.where(bad_dir, 0.0, np.clip(vh @ sun, -1.0, 1.0))
+    air_t, haze_t = _phase_terms(mu, b_sa, b_sh, gg)
+    b_ex = b_ea + b_eh
+    dd = d.astype(np.float64)[..., None]
+    F = np.exp(-_mul(b_ex, dd))
+    Lin = E * (air_t + haze_t) * path_integral(b_ex, dd)
+    out = F * L0a + Lin
+    if np.any(bad_dir):
+        out = np.where(bad_dir[..., None], np.nan, out)
+    out = np.where((d == 0)[..., None], L0a, out)  # exactly L0 at distance 0
+    return out.astype(np.float32 if L0a.dtype == np.float32 else np.float64, copy=False)

@@ -1,0 +1,331 @@
+"""Tests for atmoscatter.sky.aerial (Hoffman & Preetham, seed 000; seed 004)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy import integrate
+
+import atmoscatter as ac
+
+SUN = np.array([0.0, 0.6, 0.8])  # sun zenith acos(0.8) ≈ 36.87°
+
+
+def f_rayleigh(mu):
+    return 3.0 / (16.0 * math.pi) * (1.0 + mu * mu)  # seed 000
+
+
+def f_hg(mu, g):
+    return (1 - g * g) / (4 * math.pi * (1 + g * g - 2 * g * mu) ** 1.5)  # errata 000.1
+
+
+def iqbal(theta):
+    """Seed 000 Eq. 5 relative optical length, θ in degrees inside (written independently)."""
+    d = math.degrees(theta)
+    return 1.0 / (math.cos(theta) + 0.15 * (93.885 - d) ** -1.253)
+
+
+# ------------------------------------------------------------------------------ numerics
+def test_one_minus_exp_ratio_small_and_large_ends():
+    x = np.array([0.0, 1e-300, 1e-12, 1e-8, 1e-4])
+    series = 1 - x / 2 + x**2 / 6 - x**3 / 24  # Taylor series, exact to rounding here
+    np.testing.assert_allclose(ac.one_minus_exp_ratio(x), series, rtol=2e-16)
+    big = np.array([50.0, 700.0, 1e4, 1e300])
+    np.testing.assert_allclose(ac.one_minus_exp_ratio(big), 1.0 / big, rtol=1e-15)  # e^{-x} < 2e-22
+    mid = np.array([0.1, 1.0, 5.0])
+    ref = [(1 - math.exp(-v)) / v for v in mid]  # no cancellation at these x
+    np.testing.assert_allclose(ac.one_minus_exp_ratio(mid), ref, rtol=1e-15)
+    assert ac.one_minus_exp_ratio(np.inf) == 0.0
+    assert np.isnan(ac.one_minus_exp_ratio(np.nan))
+    assert ac.one_minus_exp_ratio(np.float32(1e-12)).dtype == np.float32
+    with pytest.raises(ValueError, match="x must be >= 0"):
+        ac.one_minus_exp_ratio(-1.0)
+
+
+@pytest.mark.parametrize("beta,s", [(1e-5, 3e3), (2e-2, 1e2), (1e-4, 1e-8), (3e-3, 1e7)])
+def test_path_integral_against_quadrature(beta, s):
+    ref, _ = integrate.quad(lambda t: math.exp(-beta * t), 0, s, epsabs=0, epsrel=1e-13, limit=200)
+    assert ac.path_integral(beta, s) == pytest.approx(ref, rel=1e-11)
+
+
+def test_path_integral_limits():
+    np.testing.assert_array_equal(ac.path_integral([0.0, 0.0, 2.0], [5.0, np.inf, 0.0]), [5.0, np.inf, 0.0])
+    assert ac.path_integral(4.0, np.inf) == 0.25
+    assert ac.path_integral(1e-300, 7.0) == pytest.approx(7.0, rel=1e-15)
+    # beta*s spanning 1e-12 .. 1e4 with no warning (RuntimeWarning is an error here)
+    beta = np.logspace(-12, 4, 33)
+    got = ac.path_integral(beta, 1.0)
+    np.testing.assert_allclose(got, -np.expm1(-beta) / beta, rtol=1e-15)
+
+
+# --------------------------------------------------------------------------- coefficients
+def test_rayleigh_values_of_seed_000():
+    """Errata 000.4: 6.95e-6, 1.18e-5, 2.44e-5 m⁻¹ at 650, 570, 475 nm."""
+    got = ac.hoffman_preetham_air_scattering()
+    np.testing.assert_allclose(got, [6.95e-6, 1.18e-5, 2.44e-5], rtol=5e-3)
+
+
+def test_haze_presets_follow_table_1_and_are_labelled():
+    table = {  # errata 000.3
+        "light_haze": (2e-5, 3e-5, 4e-5),
+        "heavy_haze": (8e-5, 1e-4, 1.2e-4),
+        "light_fog": (9e-4, 1e-3, 1.1e-3),
+        "heavy_fog": (1e-2, 1e-2, 1e-2),
+    }
+    assert set(ac.HAZE_PRESETS) == set(table)
+    gs = []
+    for name, sc in table.items():
+        p = ac.HAZE_PRESETS[name]
+        np.testing.assert_array_equal(p.scattering, sc)
+        assert 0 < p.g < 1 and "INTERPRETATION" in p.note and f"g = {p.g:.2f}" in p.note
+        gs.append(p.g)
+    assert gs == sorted(gs)  # |g| grows with beta (seed 000 text)
+    with pytest.raises(ValueError, match="g must be in"):
+        ac.HazePreset("bad", (1e-5, 1e-5, 1e-5), 1.0)
+    with pytest.raises(ValueError, match="scattering"):
+        ac.HazePreset("bad", (-1e-5, 1e-5, 1e-5), 0.5)
+
+
+# ------------------------------------------------------------------------ extinction, sun
+def test_extinction_factor():
+    ba = np.array([1e-5, 2e-5, 3e-5])
+    bh = np.array([4e-5, 5e-5, 6e-5])
+    F = ac.hoffman_preetham_extinction([0.0, 1000.0, np.inf], [0.0, 300.0, np.inf], ba, bh)
+    assert F.shape == (3, 3)
+    np.testing.assert_array_equal(F[0], 1.0)
+    np.testing.assert_allclose(F[1], [math.exp(-(a * 1000 + h * 300)) for a, h in zip(ba, bh, strict=True)], rtol=1e-15)
+    np.testing.assert_array_equal(F[2], 0.0)
+    # a transparent constituent over an infinite path does not give 0*inf = NaN
+    np.testing.assert_allclose(ac.hoffman_preetham_extinction(np.inf, 10.0, 0.0, 1e-3), [math.exp(-1e-3 * 10.0)], rtol=1e-15)
+    with pytest.raises(ValueError, match="s_air"):
+        ac.hoffman_preetham_extinction(-1.0, 0.0, ba, bh)
+
+
+@pytest.mark.parametrize("tsd", [0.0, 45.0, 80.0, 89.9, 90.0])
+def test_sunlight_after_iqbal_extinction(tsd):
+    ts = math.radians(tsd)
+    ba = ac.hoffman_preetham_air_scattering()
+    bh = ac.HAZE_PRESETS["heavy_haze"].extinction
+    E0 = np.array([1.0, 2.0, 3.0])
+    got = ac.hoffman_preetham_sunlight(ts, ba, bh, sun_irradiance=E0)
+    m = iqbal(ts)
+    ref = E0 * np.exp(-(ba * 8400.0 * m + bh * 1250.0 * m))
+    np.testing.assert_allclose(got, ref, rtol=1e-13)
+
+
+def test_sunlight_below_horizon_and_default_sun():
+    ba = ac.hoffman_preetham_air_scattering()
+    got = ac.hoffman_preetham_sunlight(np.radians([95.0, 180.0]), ba, np.zeros(3))
+    np.testing.assert_array_equal(got, 0.0)
+    E0 = ac.solar_illuminance_rgb()
+    # Y of the default E_sun⁰ ≈ luminous solar constant 133.8 klx (Darula et al. 2005)
+    Y = ac.linear_rgb_to_XYZ(E0)[1]
+    assert Y == pytest.approx(133.8e3, rel=0.01)
+
+
+# --------------------------------------------------------------------------- in-scattering
+def inscatter_quadrature(s_air, s_haze, mu, E, bsa, bea, bsh, beh, g):
+    """L_in from the seed 000 differential equation, integrated numerically (per channel).
+
+    L_in = ∫₀^{s_max} E [β_scAir f_R ρ_air(t) + β_scHaze f_HG ρ_haze(t)] e^{-τ(t)} dt, with
+    ρ = 1 inside a constituent's optical length and 0 beyond (the two shells), τ(t) the
+    optical depth from the eye to t.
+    """
+
+    def tau(t):
+        return bea * min(t, s_air) + beh * min(t, s_haze)
+
+    def integrand(t):
+        src = bsa * f_rayleigh(mu) * (t < s_air) + bsh * f_hg(mu, g) * (t < s_haze)
+        return E * src * math.exp(-tau(t))
+
+    pts = sorted({s_air, s_haze})
+    total = 0.0
+    lo = 0.0
+    for hi in pts:
+        val, _ = integrate.quad(integrand, lo, hi, epsabs=0, epsrel=1e-12, limit=200)
+        total += val
+        lo = hi
+    return total
+
+
+@pytest.mark.parametrize(
+    "s_air,s_haze",
+    [(3000.0, 3000.0), (8400.0, 1250.0), (30000.0, 4464.0), (500.0, 2000.0), (1e5, 1e3)],
+)
+def test_inscattering_two_shell_matches_the_differential_equation(s_air, s_haze):
+    bsa = ac.hoffman_preetham_air_scattering()
+    haze = ac.HAZE_PRESETS["light_fog"]
+    bsh = np.asarray(haze.scattering)
+    beh = bsh + np.array([1e-5, 2e-5, 3e-5])  # some absorption too
+    E = np.array([1.0e5, 0.9e5, 0.8e5])
+    for mu in (-0.9, 0.0, 0.5, 0.999):
+        got = ac.hoffman_preetham_inscattering(s_air, s_haze, mu, E, bsa, bsa, bsh, beh, haze.g)
+        ref = [
+            inscatter_quadrature(s_air, s_haze, mu, E[c], bsa[c], bsa[c], bsh[c], beh[c], haze.g)
+            for c in range(3)
+        ]
+        np.testing.assert_allclose(got, ref, rtol=1e-10)
+
+
+def test_inscattering_equal_lengths_is_eq4():
+    bsa = np.array([1e-5, 2e-5, 4e-5])
+    bsh = np.array([3e-5, 3e-5, 3e-5])
+    beh = bsh * 1.1
+    g, mu, s, E = 0.7, 0.3, 2500.0, np.array([1.0, 1.0, 1.0])
+    got = ac.hoffman_preetham_inscattering(s, s, mu, E, bsa, bsa, bsh, beh, g)
+    bex = bsa + beh
+    ref = E * (bsa * f_rayleigh(mu) + bsh * f_hg(mu, g)) / bex * (1 - np.exp(-bex * s))  # Eq. 4
+    np.testing.assert_allclose(got, ref, rtol=1e-13)
+
+
+def test_inscattering_stability_ends():
+    bsa = np.array([1e-5, 2e-5, 4e-5])
+    E = np.ones(3)
+    mu = 0.2
+    # beta_ex -> 0: the limit beta_sc(theta) * s, not 0/0
+    got0 = ac.hoffman_preetham_inscattering(1000.0, 1000.0, mu, E, bsa, 0.0, 0.0, 0.0, 0.5)
+    np.testing.assert_allclose(got0, bsa * f_rayleigh(mu) * 1000.0, rtol=1e-15)
+    # beta_ex * s = 1e-12 and 1e4
+    s_small = 1e-12 / bsa
+    got_small = ac.hoffman_preetham_inscattering(s_small, s_small, mu, E, bsa, bsa, 0.0, 0.0, 0.5)
+    np.testing.assert_allclose(np.diagonal(got_small), bsa * f_rayleigh(mu) * s_small * (1 - 5e-13), rtol=1e-15)
+    s_big = 1e4 / bsa
+    got_big = ac.hoffman_preetham_inscattering(s_big, s_big, mu, E, bsa, bsa, 0.0, 0.0, 0.5)
+    np.testing.assert_allclose(np.diagonal(got_big), f_rayleigh(mu), rtol=1e-15)  # beta_sc/beta_ex = 1
+    inf = ac.hoffman_preetham_inscattering(np.inf, np.inf, mu, E, bsa, bsa, 0.0, 0.0, 0.5)
+    np.testing.assert_allclose(inf, f_rayleigh(mu), rtol=1e-15)
+    zero = ac.hoffman_preetham_inscattering(0.0, 0.0, mu, E, bsa, bsa, bsa, bsa, 0.5)
+    np.testing.assert_array_equal(zero, 0.0)
+
+
+# ---------------------------------------------------------------------------- two-shell sky
+def sky_scalar(v, sun, haze, E0):
+    """Seed 000 sky: mesh at the air optical length, s_haze = s_air * 1.25/8.4, errata 000.6."""
+    bsa = ac.hoffman_preetham_air_scattering()
+    bsh = np.asarray(haze.scattering)
+    beh = bsh + np.asarray(haze.absorption)
+    ts = math.acos(sun[2])
+    m_sun = iqbal(ts)
+    E = E0 * np.exp(-(bsa * 8400 * m_sun + beh * 1250 * m_sun))
+    theta_v = math.acos(min(max(v[2], 0.0), 1.0))
+    s_air = 8400.0 * iqbal(theta_v)
+    s_haze = s_air * 1250.0 / 8400.0
+    mu = float(np.dot(v, sun))
+    sc_air = bsa * f_rayleigh(mu)
+    sc_haze = bsh * f_hg(mu, haze.g)
+    bt = bsa + beh
+    inner = (sc_air + sc_haze) / bt * (1 - np.exp(-bt * s_haze))
+    outer = sc_air / bsa * (1 - np.exp(-bsa * (s_air - s_haze))) * np.exp(-bt * s_haze)
+    return E * (inner + outer)
+
+
+def test_two_shell_sky_matches_errata_000_6():
+    haze = ac.HAZE_PRESETS["heavy_haze"]
+    E0 = np.array([1.2e5, 1.3e5, 1.4e5])
+    rng = np.random.default_rng(3)
+    v = rng.normal(size=(40, 3))
+    v[:, 2] = np.abs(v[:, 2])
+    v /= np.linalg.norm(v, axis=1, keepdims=True)
+    got = ac.hoffman_preetham_sky(v, SUN, haze="heavy_haze", sun_irradiance=E0)
+    ref = np.array([sky_scalar(row, SUN, haze, E0) for row in v])
+    np.testing.assert_allclose(got, ref, rtol=1e-12)
+
+
+def test_two_shell_sky_edges():
+    v = np.array([[0, 0, 1.0], [1, 0, 0.0], [1, 0, -0.5], [np.nan, 0, 1], [0, 0, 0.0]])
+    got = ac.hoffman_preetham_sky(v, SUN)
+    assert np.all(np.isfinite(got[:3])) and np.all(got[:3] > 0)
+    assert np.all(np.isnan(got[3:]))
+    # below the horizon: the horizon optical length, with the view's own scattering angle;
+    # compare with a horizon direction that has the same angle to the sun
+    below = np.array([math.cos(0.3), 0.0, -math.sin(0.3)])
+    y = below @ SUN / SUN[1]
+    horizon = np.array([math.sqrt(1 - y * y), y, 0.0])
+    np.testing.assert_allclose(ac.hoffman_preetham_sky(below, SUN), ac.hoffman_preetham_sky(horizon, SUN), rtol=1e-14)
+    # sun below the horizon: black sky
+    np.testing.assert_array_equal(ac.hoffman_preetham_sky(v[:3], [0.0, 1.0, -0.1]), 0.0)
+    # symmetric about the solar vertical
+    a = ac.hoffman_preetham_sky([0.5, 0.5, math.sqrt(0.5)], SUN)
+    b = ac.hoffman_preetham_sky([-0.5, 0.5, math.sqrt(0.5)], SUN)
+    np.testing.assert_allclose(a, b, rtol=1e-14)
+    assert ac.hoffman_preetham_sky(v[:3].astype(np.float32), SUN).dtype == np.float32
+    assert ac.hoffman_preetham_sky(np.ones((2, 5, 3)), SUN, haze=None).shape == (2, 5, 3)
+    with pytest.raises(ValueError, match="haze"):
+        ac.hoffman_preetham_sky(v[:3], SUN, haze="smog")
+
+
+# ------------------------------------------------------------------------ aerial perspective
+def test_aerial_perspective_distance_zero_is_exact():
+    rng = np.random.default_rng(0)
+    L0 = rng.uniform(0, 5000, size=(4, 5, 3))
+    d = np.zeros((4, 5))
+    np.testing.assert_array_equal(ac.aerial_perspective(L0, d, [0.3, 0.9, 0.1], SUN), L0)
+    L32 = L0.astype(np.float32)
+    got = ac.aerial_perspective(L32, d, [0.3, 0.9, 0.1], SUN)
+    assert got.dtype == np.float32
+    np.testing.assert_array_equal(got, L32)
+
+
+def test_aerial_perspective_is_Fex_L0_plus_Lin():
+    rng = np.random.default_rng(1)
+    L0 = rng.uniform(0, 5000, size=(6, 3))
+    d = np.array([1.0, 10.0, 1e3, 1e4, 1e5, np.inf])
+    view = rng.normal(size=(6, 3))
+    view /= np.linalg.norm(view, axis=1, keepdims=True)
+    haze = ac.HAZE_PRESETS["heavy_haze"]
+    got = ac.aerial_perspective(L0, d, view, SUN, haze="heavy_haze")
+    bsa = ac.hoffman_preetham_air_scattering()
+    bsh = np.asarray(haze.scattering)
+    bex = bsa + bsh
+    E = ac.solar_illuminance_rgb() * np.exp(-(bsa * 8400 + bsh * 1250) * iqbal(math.acos(0.8)))
+    for i in range(6):
+        mu = float(view[i] @ SUN)
+        bth = bsa * f_rayleigh(mu) + bsh * f_hg(mu, haze.g)
+        F = np.exp(-bex * d[i])
+        Lin = E * bth / bex * (1 - F)  # Eq. 4 (no cancellation at these optical depths)
+        np.testing.assert_allclose(got[i], F * L0[i] + Lin, rtol=1e-10)
+    # far away the object disappears into the "airlight" E β_sc(θ)/β_ex
+    assert np.all(np.isfinite(got[-1]))
+
+
+def test_aerial_perspective_options_and_bad_input():
+    L0 = np.full((2, 3), 100.0)
+    d = np.array([100.0, 2000.0])
+    base = ac.aerial_perspective(L0, d, [1.0, 0, 0], SUN, haze=None, sun_extinction=False, sun_irradiance=[1.0, 1.0, 1.0])
+    bsa = ac.hoffman_preetham_air_scattering()
+    mu = 0.0
+    ref = np.exp(-bsa * d[:, None]) * 100.0 + bsa * f_rayleigh(mu) / bsa * (1 - np.exp(-bsa * d[:, None]))
+    np.testing.assert_allclose(base, ref, rtol=1e-13)
+    g_hi = ac.aerial_perspective(L0, d, SUN, SUN, g=0.9)
+    g_lo = ac.aerial_perspective(L0, d, SUN, SUN, g=0.1)
+    assert np.all(g_hi > g_lo)  # looking toward the sun: forward scattering brightens
+    assert np.all(np.isnan(ac.aerial_perspective(L0, d, [0.0, 0.0, 0.0], SUN)))
+    with pytest.raises(TypeError, match="unknown option"):
+        ac.aerial_perspective(L0, d, SUN, SUN, turbidity=3.0)
+    with pytest.raises(ValueError, match="distance"):
+        ac.aerial_perspective(L0, -d, SUN, SUN)
+    with pytest.raises(ValueError, match="L0"):
+        ac.aerial_perspective(np.ones((2, 4)), d, SUN, SUN)
+    with pytest.raises(ValueError, match="haze"):
+        ac.aerial_perspective(L0, d, SUN, SUN, haze="smog")
+    with pytest.raises(ValueError, match="sun_direction"):
+        ac.aerial_perspective(L0, d, SUN, [0.0, 0.0])
+    with pytest.raises(ValueError, match="g must be in"):
+        ac.aerial_perspective(L0, d, SUN, SUN, g=1.5)
+
+
+def test_aerial_perspective_depth_buffer_shapes():
+    H, W = 8, 12
+    L0 = np.ones((H, W, 3))
+    depth = np.linspace(0, 5e4, H * W).reshape(H, W)
+    out = ac.aerial_perspective(L0, depth, [0.0, 1.0, 0.05], SUN)
+    assert out.shape == (H, W, 3)
+    # per-pixel view directions too
+    views = np.broadcast_to([0.0, 1.0, 0.05], (H, W, 3))
+    np.testing.assert_allclose(ac.aerial_perspective(L0, depth, views, SUN), out, rtol=1e-15)
+    # distant objects converge to the airlight: monotone approach for a dark object
+    dark = ac.aerial_perspective(np.zeros((H, W, 3)), depth, [0.0, 1.0, 0.05], SUN)
+    assert np.all(np.diff(dark.reshape(-1, 3), axis=0) >= 0)
