@@ -667,6 +667,11 @@ def plan(scene: Scene, *, batch_size: int | None = None) -> Plan:
         haze = scene.turbidity > 1.0
         notes.append(f"{scene.model}: turbidity is a parameter of the fit (no separate haze term)")
 
+    rng = adapter.turbidity_range
+    if rng is not None and not rng[0] <= scene.turbidity <= rng[1]:
+        notes.append(f"turbidity {scene.turbidity:g} is outside {scene.model}'s fit range "
+                     f"{rng[0]:g}-{rng[1]:g}: the model clamps it (with a warning)")
+
     # spectral sampling ----------------------------------------------------------
     if adapter.spectral:
         wavelengths = adapter.wavelengths(scene)
