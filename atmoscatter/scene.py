@@ -517,6 +517,9 @@ class Plan:
         Whether chromaticity (x, y) is computed at all.
     haze : bool
         Whether an aerosol/haze term is evaluated (False at turbidity 1).
+    haze_separate : bool
+        Whether the model has a separate haze term at all (Preetham and the
+        CIE skies fold turbidity into their fits).
     spectral_integration : str
         ``"none"``, ``"Y only"`` (ȳ only) or ``"XYZ"`` (three CMFs).
     wavelengths : tuple of float
@@ -550,6 +553,7 @@ class Plan:
     layers: tuple
     chromaticity: bool
     haze: bool
+    haze_separate: bool
     spectral_integration: str
     wavelengths: tuple
     skip_below_horizon: bool
@@ -590,7 +594,8 @@ class Plan:
             f"sun              : zenith {math.degrees(self.sun_zenith):.4f} deg, azimuth "
             f"{math.degrees(self.sun_azimuth):.4f} deg ({self.sun_source}); "
             f"Earth-Sun distance {self.distance_au:.5f} AU",
-            f"haze term        : {'yes' if self.haze else 'skipped'}",
+            "haze term        : " + (("yes" if self.haze else "skipped") if self.haze_separate
+                                     else "part of the fit (turbidity is a fit parameter)"),
             f"chromaticity     : {'yes' if self.chromaticity else 'skipped'}",
             f"spectral integr. : {self.spectral_integration}"
             + (f" over {len(self.wavelengths)} wavelengths" if self.wavelengths else ""),
@@ -719,6 +724,7 @@ def plan(scene: Scene, *, batch_size: int | None = None) -> Plan:
         layers=layers,
         chromaticity=chroma,
         haze=haze,
+        haze_separate=adapter.separate_haze,
         spectral_integration=integration,
         wavelengths=tuple(float(w) for w in wavelengths),
         skip_below_horizon=skip_below,
