@@ -147,6 +147,12 @@ class TestPlanIsFollowed:
         b = ac.render(s, workers=3, batch_size=300)
         np.testing.assert_array_equal(a.rgb, b.rgb)
 
+    def test_render_rejects_bad_directions(self):
+        with pytest.raises(ValueError, match="finite unit vectors"):
+            ac.render(scene(), directions=np.array([[0.0, 0.0, 2.0]]))
+        with pytest.raises(ValueError, match="finite unit vectors"):
+            ac.render(scene(), directions=np.array([[np.nan, 0.0, 1.0]]))
+
     def test_render_given_directions(self):
         d = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
         img = ac.render(scene(), directions=d)
