@@ -46,7 +46,7 @@ __all__ = ["SkyImage", "render", "render_batches", "sun_disc_radiance", "LIMB_DA
 #: Linear limb-darkening coefficient u in ``I(μ)/I(1) = 1 − u (1 − μ)``: the
 #: Eddington approximation for a grey atmosphere, ``I(μ) ∝ (2 + 3μ)/5`` (e.g.
 #: Mihalas 1978, *Stellar Atmospheres*, §3-3), u = 0.6 at all wavelengths.  The
-#: observed solar value at 550 nm is close to it (Neckel & Labs 1994).
+#: real Sun darkens more in the blue than in the red; that dependence is not modelled.
 LIMB_DARKENING_U = 0.6
 
 
@@ -234,7 +234,12 @@ class _Context:
         self.lock = threading.Lock()
 
     def _ground_value(self):
-        """ρ E_h / π from the model's own upper-hemisphere radiance (no direct sun)."""
+        """ρ (E_sky + E_sun) / π: Lambertian ground under the model's sky and the direct sun.
+
+        E_sky from a 16 × 64 Gauss–Legendre × uniform quadrature of the model's
+        upper-hemisphere radiance; E_sun = E·T·cos θ_s, the transmitted direct
+        beam of :func:`sun_disc_radiance` (0 with the sun below the horizon).
+        """
         x, w = np.polynomial.legendre.leggauss(16)
         mu = 0.5 * (x + 1.0)
         wmu = 0.5 * w
@@ -247,9 +252,17 @@ class _Context:
         weight = (np.outer(wmu * mu, np.full(naz, 2.0 * np.pi / naz))).ravel()
         vals = res[self.key].reshape(len(d), -1)
         eh = weight @ vals
+        cos_sun = max(math.cos(self.plan.sun_zenith), 0.0)
+        if cos_sun > 0.0:
+            xyz_c, a, (grid, L) = sun_disc_radiance(self.scene, self.plan)
+            beam = 2.0 * math.pi * (1.0 - math.cos(a)) * (1.0 - LIMB_DARKENING_U / 3.0) * cos_sun
+            eh = eh + (xyz_c[1:2] if self.key == "Y" else xyz_c) * beam
         self.ground = self.scene.ground_albedo * eh / np.pi
         if self.nspec and "spectral" in res:
-            self.ground_spec = self.scene.ground_albedo * (weight @ res["spectral"]) / np.pi
+            es = weight @ res["spectral"]
+            if cos_sun > 0.0:
+                es = es + np.interp(np.asarray(self.plan.wavelengths), grid, L) * beam
+            self.ground_spec = self.scene.ground_albedo * es / np.pi
 
     def _eval(self, dirs):
         if self.plan.symmetry:

@@ -338,8 +338,8 @@ def _validate(s: Scene) -> None:
         raise ValueError(f"model={s.model!r} is not valid; choose one of {sorted(MODELS)}")
     _check(s.turbidity >= 1.0, f"turbidity must be in [1, inf) (1 = no haze), got {s.turbidity!r}")
     _check(-90.0 <= s.latitude <= 90.0, f"latitude must be in [-90, 90] deg, got {s.latitude!r}")
-    _check(-180.0 <= s.longitude <= 360.0,
-           f"longitude must be in [-180, 360] deg, got {s.longitude!r}")
+    _check(-360.0 <= s.longitude <= 360.0,
+           f"longitude must be in [-360, 360] deg, got {s.longitude!r}")
     if s.sun_elevation_deg is not None:
         _check(-90.0 <= s.sun_elevation_deg <= 90.0,
                f"sun_elevation_deg must be in [-90, 90] deg, got {s.sun_elevation_deg!r}")
@@ -616,7 +616,7 @@ def _ground_value_text(scene: Scene) -> str:
     if scene.ground_albedo == 0.0:
         return "0 (black ground, ground_albedo = 0)"
     return (f"a Lambertian ground of albedo {scene.ground_albedo:g} lit by the model's own "
-            "diffuse sky (rho * E_h / pi, no direct sun)")
+            "sky and the transmitted direct sun (rho * E_h / pi)")
 
 
 def plan(scene: Scene, *, batch_size: int | None = None) -> Plan:

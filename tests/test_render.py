@@ -172,6 +172,10 @@ class TestGround:
             return toy_luminance(d, sun)[0] * math.cos(theta) * math.sin(theta)
 
         e_h, _ = integrate.dblquad(integrand, 0, math.pi / 2, 0, 2 * math.pi, epsabs=1e-6)
+        # plus the direct beam: transmitted disc radiance integrated over the disc, times cos
+        y_c, alpha, _ = ac.sun_disc_radiance(s)
+        e_sun = y_c[1] * (1 - ac.LIMB_DARKENING_U / 3) * 2 * math.pi * (1 - math.cos(alpha))
+        e_h += e_sun * math.sin(math.radians(35.0))
         expected = 0.3 * e_h / math.pi
         np.testing.assert_allclose(img.luminance[20:], expected, rtol=1e-6)
         assert np.all(img.alpha[20:] == 0)
