@@ -111,7 +111,8 @@ def _cmd_render(args, out) -> int:
     t0 = time.perf_counter()
     img = render(scene, workers=args.workers, batch_size=args.batch_size)
     write_exr(args.output, img)
-    print(f"wrote {args.output} ({scene.projection} {'x'.join(map(str, img.shape))}, "
+    size = "x".join(map(str, img.shape[::-1]))
+    print(f"wrote {args.output} ({scene.projection} {size}, "
           f"model {scene.model}, {time.perf_counter() - t0:.2f} s)", file=out)
     if args.preview:
         write_preview(img, args.preview)

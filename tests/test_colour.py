@@ -108,6 +108,17 @@ def test_linear_rgb_round_trip_and_white():
     np.testing.assert_allclose(Y, [0.2126, 0.7152, 0.0722], atol=1e-4)
 
 
+def test_XYZ_to_linear_rgb_matches_colour_science():
+    # colour.XYZ_to_RGB without chromatic adaptation or transfer function
+    XYZ = np.random.default_rng(4).random((20, 3))
+    for cs in ("sRGB", "ACEScg", "ITU-R BT.2020", "Display P3"):
+        ref = colour.XYZ_to_RGB(XYZ, cs, illuminant=None, apply_cctf_encoding=False)
+        np.testing.assert_allclose(ac.XYZ_to_linear_rgb(XYZ, cs), ref, rtol=1e-12, atol=1e-15)
+        # and the reverse agrees with colour.RGB_to_XYZ to the precision of its matrices
+        ref_back = colour.RGB_to_XYZ(ref, cs, illuminant=None, apply_cctf_decoding=False)
+        np.testing.assert_allclose(ac.linear_rgb_to_XYZ(ref, cs), ref_back, rtol=0, atol=1e-4)
+
+
 def test_linear_rgb_float32_preserved():
     XYZ = np.random.default_rng(3).random((10, 3)).astype(np.float32)
     rgb = ac.XYZ_to_linear_rgb(XYZ)

@@ -25,6 +25,8 @@ REQUIRES = {
                    "diffuse_irradiance", "sh_project"),
     "batch": ("load_batch", "run_batch"),
     "oracle": ("render", "preetham_sky", "compare_exr", "sh_project"),
+    "models": ("render", "plan", "MODELS", "write_exr", "read_exr", "write_preview",
+               "preview_array"),
 }
 
 
