@@ -53,7 +53,8 @@ def gallery_items(models):
         hh = hour % 24
         day = DAY if hour < 24 else "2024-06-22"
         t = f"{day}T{hh:02d}:00:00Z"
-        items.append(("A day of skies", f"day_{hour:02d}utc", f"{t} (local ≈ UTC−7 h)",
+        items.append(("A day of skies", f"day_{hour:02d}utc",
+                      f"{hh:02d}:00 UTC ≈ {(hour - 7) % 24:02d}:00 local solar time",
                       None if best is None else dict(
                           model=best, time=t, turbidity=2.5, projection="fisheye",
                           width=128, height=128, **SITE), None if best else "no sky model"))
@@ -118,15 +119,13 @@ def main(argv=None) -> int:
     missing = [m for m in ("preetham", "single_scattering", "multiple_scattering") if m not in models]
     if missing:
         lines += [f"**Not available** in this build, so not shown: {', '.join(missing)}.", ""]
-    section = None
+    sections: dict[str, list] = {}
     for sec, stem, caption, fields, reason in gallery_items(models):
         if args.only and args.only not in stem:
             continue
-        if sec != section:
-            lines += [f"## {sec}", ""]
-            section = sec
+        entries = sections.setdefault(sec, [])
         if fields is None:
-            lines += [f"- *{caption}*: not rendered ({reason}).", ""]
+            entries.append((None, caption, f"not rendered ({reason})"))
             continue
         if args.scale != 1.0:
             for k in ("width", "height"):
@@ -138,26 +137,36 @@ def main(argv=None) -> int:
         try:
             img = ac.render(scene)
         except Exception as exc:  # report, keep going: one scene must not lose the others
-            lines += [f"- *{caption}*: rendering failed: `{' '.join(str(exc).split())}`", ""]
+            entries.append((None, caption, f"rendering failed: `{' '.join(str(exc).split())}`"))
             print(f"{stem}: FAILED {exc}", file=sys.stderr)
             continue
         dt = time.perf_counter() - t0
         from atmoscatter.preview import preview_array, write_png
 
         rgb, lum = img.rgb, img.luminance
-        if fields["projection"] == "latlong" and fields.get("altitude", 0.0) < 1e4:
+        ground = fields["projection"] == "latlong" and fields.get("altitude", 0.0) < 1e4
+        if ground:
             # a ground observer's lower half is the (uniform) ground fill: keep the sky
             h = rgb.shape[0] // 2
             rgb, lum = rgb[:h], lum[:h]
         write_png(os.path.join(out_dir, f"{stem}.png"), preview_array(rgb, luminance=lum))
         desc = ", ".join(f"{k}={v}" for k, v in fields.items()
                          if k not in ("width", "height", "projection"))
-        shown = "upper half of a " if (fields["projection"] == "latlong"
-                                       and fields.get("altitude", 0.0) < 1e4) else ""
-        lines += [f"![{caption}](gallery/{stem}.png)", "",
-                  f"*{caption}* — {shown}{fields['projection']} {fields['width']}×{fields['height']}, "
-                  f"{desc}; {dt:.1f} s.", ""]
+        shown = "upper half of a " if ground else ""
+        entries.append((f"gallery/{stem}.png", caption,
+                        f"{shown}{fields['projection']} {fields['width']}×{fields['height']}, "
+                        f"{desc}; rendered in {dt:.1f} s"))
         print(f"{stem}: {dt:.1f} s")
+    for sec, entries in sections.items():
+        lines += [f"## {sec}", ""]
+        shown = [e for e in entries if e[0] is not None]
+        per_row = 4 if shown and "fisheye" in shown[0][2] else 3
+        for k in range(0, len(shown), per_row):
+            row = shown[k:k + per_row]
+            lines += ["| " + " | ".join(f"![{c}]({src})" for src, c, _ in row) + " |",
+                      "|" + "---|" * len(row),
+                      "| " + " | ".join(c for _, c, _ in row) + " |", ""]
+        lines += [f"- *{c}*: {d}." for _, c, d in entries] + [""]
     with open(os.path.join(args.out, "gallery.md"), "w", encoding="utf-8") as fh:
         fh.write("\n".join(lines).rstrip() + "\n")
     return 0

@@ -251,36 +251,52 @@ def _elev_list(rr):
 def _findings(rows, tested):
     out = ["### Where the models fail", "",
            f"A case *fails* when more than 5 % of the sky is off by more than {FAIL_P95:.0%} "
-           "(p95 of the relative luminance error above that).  The first clause is about "
-           "absolute luminance (no rescaling), the second about the shape of the distribution "
-           "once the overall level is fitted (best-fit scale).", ""]
+           "(p95 of the relative luminance error above that).  *Absolute*: no rescaling (what "
+           "a renderer using the model in physical units gets); *shape*: after the best-fit "
+           "scale (only the distribution over the sky).", ""]
+    summary = ["| model | T | p95 absolute, highest → lowest sun | p95 shape, highest → lowest "
+               "sun | ΔE00 p95, highest → lowest sun | best-fit scale range |",
+               "|---|---|---|---|---|---|"]
     any_line = False
     for m in tested:
         ok = [r for r in rows if r["model"] == m and "p95" in r]
         if not ok:
             continue
         any_line = True
-        parts = []
-        for key, what in (("p95", "absolute"), ("scaled_p95", "after the best-fit scale")):
-            by_t = []
-            for T in TURBIDITIES:
-                rt = [r for r in ok if r["turbidity"] == T]
-                bad = [r for r in rt if r[key] > FAIL_P95]
-                if bad:
-                    worst = max(bad, key=lambda r: r[key])
-                    by_t.append(f"T = {T:g}: {len(bad)}/{len(rt)} instants (sun {_elev_list(bad)}; "
-                                f"worst p95 {worst[key]:.2f} at {worst['sun_elevation_deg']:.0f}°)")
-            if by_t:
-                parts.append(f"{what}: fails at " + "; ".join(by_t))
-            else:
-                parts.append(f"{what}: p95 ≤ {FAIL_P95:.0%} everywhere (worst "
-                             f"{max(r[key] for r in ok):.3f})")
-        scales = [r["scale"] for r in ok]
-        out.append(f"- `{m}` — " + ".  ".join(parts) + f".  Best-fit scale (reference/model) "
-                   f"ranges {min(scales):.2f}–{max(scales):.2f}.")
+        n = len(ok)
+        fa = [r for r in ok if r["p95"] > FAIL_P95]
+        fs = [r for r in ok if r["scaled_p95"] > FAIL_P95]
+        lo = min(ok, key=lambda r: r["p95"])
+        hi = max(ok, key=lambda r: r["p95"])
+        hs = max(ok, key=lambda r: r["scaled_p95"])
+        text = (f"- `{m}`: absolute p95 from {lo['p95']:.2f} (T = {lo['turbidity']:g}, sun "
+                f"{lo['sun_elevation_deg']:.0f}°) to {hi['p95']:.2f} (T = {hi['turbidity']:g}, "
+                f"sun {hi['sun_elevation_deg']:.0f}°); fails in {len(fa)} of {n} cases")
+        if fa and len(fa) < n:
+            text += f" (sun {_elev_list(fa)})"
+        text += (f".  Shape (after scaling): worst p95 {hs['scaled_p95']:.2f} (T = "
+                 f"{hs['turbidity']:g}, sun {hs['sun_elevation_deg']:.0f}°); fails in {len(fs)} "
+                 f"of {n} cases")
+        if fs and len(fs) < n:
+            text += f" (sun {_elev_list(fs)})"
+        out.append(text + ".")
+        for T in TURBIDITIES:
+            rt = [r for r in ok if r["turbidity"] == T]
+            if not rt:
+                continue
+            top = max(rt, key=lambda r: r["sun_elevation_deg"])
+            low = min(rt, key=lambda r: r["sun_elevation_deg"])
+            sc = [r["scale"] for r in rt]
+            summary.append(
+                f"| `{m}` | {T:g} | {top['p95']:.2f} → {low['p95']:.2f} | "
+                f"{top['scaled_p95']:.2f} → {low['scaled_p95']:.2f} | "
+                f"{top['delta_e_p95']:.1f} → {low['delta_e_p95']:.1f} | "
+                f"{min(sc):.3g}–{max(sc):.3g} |")
     if not any_line:
-        out.append("- nothing to report (no model compared).")
-    return out + [""]
+        return out + ["- nothing to report (no model compared).", ""]
+    hi_el = max(r["sun_elevation_deg"] for r in rows if "p95" in r)
+    lo_el = min(r["sun_elevation_deg"] for r in rows if "p95" in r)
+    return out + ["", f"Highest sun {hi_el:.0f}°, lowest {lo_el:.0f}°:", "", *summary, ""]
 
 
 def _plot(rows, tested, out_dir, ref_model):
