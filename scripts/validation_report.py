@@ -269,7 +269,18 @@ def _findings(rows, tested):
         lo = min(ok, key=lambda r: r["p95"])
         hi = max(ok, key=lambda r: r["p95"])
         hs = max(ok, key=lambda r: r["scaled_p95"])
-        text = (f"- `{m}`: absolute p95 from {lo['p95']:.2f} (T = {lo['turbidity']:g}, sun "
+        ratio = sorted(1.0 / r["scale"] for r in ok)
+        lowest, highest = ratio[0], ratio[-1]
+        if lowest > 1:
+            level = f"brighter than the reference by a factor {lowest:.2g}–{highest:.2g}"
+        elif highest < 1:
+            level = f"darker than the reference: {lowest:.2g}–{highest:.2g} times its level"
+        else:
+            level = f"between {lowest:.2g} and {highest:.2g} times the reference level"
+        worst_level = max(ok, key=lambda r: abs(np.log(r["scale"])))
+        text = (f"- `{m}` is {level} (best-fit level; farthest at T = "
+                f"{worst_level['turbidity']:g}, sun {worst_level['sun_elevation_deg']:.0f}°).  "
+                f"Absolute p95 from {lo['p95']:.2f} (T = {lo['turbidity']:g}, sun "
                 f"{lo['sun_elevation_deg']:.0f}°) to {hi['p95']:.2f} (T = {hi['turbidity']:g}, "
                 f"sun {hi['sun_elevation_deg']:.0f}°); fails in {len(fa)} of {n} cases")
         if fa and len(fa) < n:
