@@ -28,10 +28,14 @@ Our sky maps use OpenEXR's environment-map conventions with the OpenEXR environm
   with OpenEXR's face orientations.
 - **fisheye** (square): angular (equidistant) projection of the upper hemisphere, zenith at
   the centre, north up, east to the left (as seen looking up).
+- **directions**: any direction set (a sky-dome mesh, your own sample points): the file
+  carries the unit direction of every pixel in channels ``dir.X``, ``dir.Y``, ``dir.Z`` in the
+  local frame (x = east, y = north, z = up), as ``atmoscatter render`` writes dome meshes.
+  Our reference is rendered at exactly those directions; statistics are weighted per pixel.
 
 Another renderer's map in a different convention is brought into ours with ``flip``
-(applied first) and ``rotate_deg`` (lat-long only): the pixel the file stores at azimuth *a*
-is compared with our pixel at azimuth *a* + ``rotate_deg``.  ``flip="horizontal"`` mirrors
+(applied first) and ``rotate_deg`` (lat-long and direction sets): the pixel the file stores
+at azimuth *a* is compared with our pixel at azimuth *a* + ``rotate_deg``.  ``flip="horizontal"`` mirrors
 azimuth (a map whose azimuth runs west-ward), ``flip="vertical"`` swaps top and bottom.
 RGB files are read as **linear** RGB in ``colourspace`` (any colour-science name, default
 sRGB / Rec. 709 primaries); files that carry ``XYZ.X/Y/Z`` or a single ``Y`` channel are
@@ -85,7 +89,7 @@ __all__ = [
 #: reference image's median luminance.
 MIDDLE_GREY: float = 0.18
 
-LAYOUTS = ("auto", "latlong", "cubemap", "fisheye")
+LAYOUTS = ("auto", "latlong", "cubemap", "fisheye", "directions")
 FLIPS = ("none", "horizontal", "vertical", "both")
 REGIONS = ("sky", "all")
 
@@ -490,6 +494,9 @@ class SkyMap:
         The file's header attributes (strings and numbers only).
     source : str
         How the colour was read (``XYZ channels``, ``Y channel`` or ``RGB as <colourspace>``).
+    directions : ndarray or None
+        ``directions`` layout only: unit directions (rows, columns, 3), local frame, after
+        the flip/rotate options.
     """
 
     xyz: np.ndarray | None
@@ -499,6 +506,7 @@ class SkyMap:
     height: int
     header: dict
     source: str
+    directions: np.ndarray | None = None
 
 
 def _read_exr_channels(path):
@@ -525,7 +533,9 @@ def _read_exr_channels(path):
     return chans, header
 
 
-def _detect_layout(header, h, w, path):
+def _detect_layout(header, h, w, path, chans=()):
+    if all(c in chans for c in ("dir.X", "dir.Y", "dir.Z")):
+        return "directions"
     env = header.get("envmap")
     if env is not None:
         name = str(env).lower()
@@ -541,8 +551,8 @@ def _detect_layout(header, h, w, path):
     if w == h:
         return "fisheye"
     raise ValueError(f"{path!r}: cannot infer the layout of a {w}×{h} image without an envmap "
-                     "attribute; pass layout='latlong' (width = 2 × height), 'cubemap' "
-                     "(height = 6 × width) or 'fisheye' (square)")
+                     "attribute or dir.X/dir.Y/dir.Z channels; pass layout='latlong' (width = "
+                     "2 × height), 'cubemap' (height = 6 × width) or 'fisheye' (square)")
 
 
 def _rotate_columns(a, rotate_deg):
@@ -566,12 +576,13 @@ def read_sky_map(path, *, layout: str = "auto", rotate_deg: float = 0.0, flip: s
     path : str or path-like
         OpenEXR file with ``R, G, B`` (linear, in ``colourspace``), ``XYZ.X/Y/Z`` or ``Y``
         channels.
-    layout : {"auto", "latlong", "cubemap", "fisheye"}
-        ``auto`` uses the ``envmap`` header attribute, else the aspect ratio
-        (2:1 lat-long, 1:6 cube map, square fisheye).
+    layout : {"auto", "latlong", "cubemap", "fisheye", "directions"}
+        ``auto``: ``directions`` if the file has ``dir.X/Y/Z`` channels, else the ``envmap``
+        header attribute, else the aspect ratio (2:1 lat-long, 1:6 cube map, square fisheye).
     rotate_deg : float
-        Lat-long only: the pixel stored at azimuth *a* is compared with ours at
-        *a* + ``rotate_deg`` [deg]; fractional column shifts interpolate linearly.
+        Lat-long and direction sets: the pixel stored at azimuth *a* is compared with ours at
+        *a* + ``rotate_deg`` [deg]; in lat-long maps fractional column shifts interpolate
+        linearly.
     flip : {"none", "horizontal", "vertical", "both"}
         Mirror the file's columns (azimuth direction) and/or rows before rotating.
     colourspace : str
@@ -613,7 +624,7 @@ def read_sky_map(path, *, layout: str = "auto", rotate_deg: float = 0.0, flip: s
     if lum.ndim != 2:
         raise ValueError(f"{os.fspath(path)!r}: expected a 2-D image, got shape {lum.shape}")
     h, w = lum.shape
-    lay = _detect_layout(header, h, w, os.fspath(path)) if layout == "auto" else layout
+    lay = _detect_layout(header, h, w, os.fspath(path), chans) if layout == "auto" else layout
     if lay == "latlong" and w != 2 * h:
         raise ValueError(f"a lat-long map must be twice as wide as high, got {w}×{h}")
     if lay == "cubemap" and h != 6 * w:
@@ -621,13 +632,34 @@ def read_sky_map(path, *, layout: str = "auto", rotate_deg: float = 0.0, flip: s
                          f"(height = 6 × width), got {w}×{h}")
     if lay == "fisheye" and w != h:
         raise ValueError(f"a fisheye image must be square, got {w}×{h}")
-    if lay != "latlong" and rotate_deg % 360.0 != 0.0:
-        raise ValueError(f"rotate_deg is only supported for lat-long maps (layout is {lay})")
+    if lay not in ("latlong", "directions") and rotate_deg % 360.0 != 0.0:
+        raise ValueError(f"rotate_deg is only supported for lat-long maps and direction sets "
+                         f"(layout is {lay})")
+    dirs = None
+    if lay == "directions":
+        if not all(c in chans for c in ("dir.X", "dir.Y", "dir.Z")):
+            raise ValueError(f"{os.fspath(path)!r}: layout 'directions' needs dir.X, dir.Y, "
+                             f"dir.Z channels (found {sorted(chans)})")
+        dirs = np.stack([chans[c] for c in ("dir.X", "dir.Y", "dir.Z")], -1).astype(np.float64)
+        norm = np.linalg.norm(dirs, axis=-1, keepdims=True)
+        if not np.all(np.isfinite(norm)) or np.any(np.abs(norm - 1.0) > 1e-3):
+            raise ValueError(f"{os.fspath(path)!r}: dir.X/Y/Z must be unit vectors")
+        dirs = dirs / norm
+        if flip in ("horizontal", "both"):  # azimuth a → −a: mirror east–west
+            dirs[..., 0] = -dirs[..., 0]
+        if flip in ("vertical", "both"):
+            dirs[..., 2] = -dirs[..., 2]
+        r = math.radians(rotate_deg)  # azimuth a → a + rotate (from north toward east)
+        x, y = dirs[..., 0].copy(), dirs[..., 1].copy()
+        dirs[..., 0] = x * math.cos(r) + y * math.sin(r)
+        dirs[..., 1] = y * math.cos(r) - x * math.sin(r)
     if lay == "cubemap" and flip != "none":
         raise ValueError("flip is not supported for cube maps (each face has its own "
                          "orientation); convert the cube map to our face order instead")
 
     def transform(a):
+        if lay == "directions":  # the pixels stay; their directions were transformed
+            return np.ascontiguousarray(a)
         if flip in ("horizontal", "both"):
             a = a[:, ::-1]
         if flip in ("vertical", "both"):
@@ -641,7 +673,7 @@ def read_sky_map(path, *, layout: str = "auto", rotate_deg: float = 0.0, flip: s
     simple = {k: (v if isinstance(v, int | float | str) else str(v)) for k, v in header.items()}
     width, height = (w, h) if lay != "cubemap" else (w, w)
     return SkyMap(xyz=xyz, luminance=lum, layout=lay, width=width, height=height,
-                  header=simple, source=source)
+                  header=simple, source=source, directions=dirs)
 
 
 # --------------------------------------------------------------------------------------
@@ -659,8 +691,9 @@ def _scene_for(scene, sky_map: SkyMap):
         scene = Scene.from_dict(scene)
     elif scene is None:
         scene = Scene()
-    changes = {"projection": sky_map.layout, "width": sky_map.width, "height": sky_map.height,
-               "sun_disc": False}
+    changes = {"sun_disc": False}
+    if sky_map.layout != "directions":  # else rendered at the file's own directions
+        changes.update(projection=sky_map.layout, width=sky_map.width, height=sky_map.height)
     names = {f.name for f in dataclasses.fields(scene)}
     if "output" in names:
         changes["output"] = "xyz"
@@ -715,7 +748,8 @@ def compare_exr(
         from .render import render
 
         sc = _scene_for(scene, sky)
-        reference = render(sc)
+        reference = render(sc, directions=sky.directions) if sky.layout == "directions" \
+            else render(sc)
     else:
         sc = reference.scene
     ours_y = np.asarray(reference.luminance, dtype=np.float64)
@@ -754,7 +788,8 @@ def compare_exr(
                     "region": region, "sun_exclusion_deg": excl},
         "scene": scene_fields,
     }
-    return compare_images(o, r, other_space=o_space, reference_space=r_space, weights=solid,
+    weights = None if sky.layout == "directions" else solid  # no pixel areas known
+    return compare_images(o, r, other_space=o_space, reference_space=r_space, weights=weights,
                           mask=mask, scale_method=scale_method, info=info)
 
 

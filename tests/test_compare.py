@@ -454,3 +454,34 @@ def test_cli_compare_uses_scene_in_header_and_reports_errors(tmp_path, capsys):
     assert main(["compare", str(bare), "--scene", str(_scene_file(tmp_path)),
                  "--layout", "cubemap"]) == 2
     assert "six square faces" in capsys.readouterr().err
+
+
+def test_compare_direction_set_file(tmp_path):
+    # a dome mesh written by our renderer carries dir.X/Y/Z: compared at those directions
+    import atmoscatter as ac
+
+    scene = ac.Scene(model="preetham", turbidity=3.0, sun_elevation_deg=40.0,
+                     sun_azimuth_deg=150.0, projection="dome", width=16, height=6)
+    img = ac.render(scene)
+    path = ac.write_exr(tmp_path / "dome.exr", img)
+    m = read_sky_map(path)
+    assert m.layout == "directions" and m.directions.shape == m.luminance.shape + (3,)
+    r = compare_exr(path, scene)
+    assert r.weighting == "pixel" and r.pixels_compared > 0
+    assert r.luminance_relative_error["max"] < 1e-6
+    # rotating the file's directions by 30° in azimuth (and mirroring) is undone exactly
+    d = np.asarray(img.directions, dtype=float).reshape(1, -1, 3)
+    a = np.radians(-30.0)
+    stored = np.stack([-(d[..., 0] * np.cos(a) + d[..., 1] * np.sin(a)),
+                       d[..., 1] * np.cos(a) - d[..., 0] * np.sin(a), d[..., 2]], -1)
+    xyz = np.asarray(img.xyz if img.xyz is not None else
+                     linear_rgb_to_XYZ(np.asarray(img.rgb, float), "sRGB"), float).reshape(1, -1, 3)
+    other = tmp_path / "rotated.exr"
+    _write_exr(other, {"XYZ.X": xyz[..., 0], "XYZ.Y": xyz[..., 1], "XYZ.Z": xyz[..., 2],
+                       "dir.X": stored[..., 0], "dir.Y": stored[..., 1], "dir.Z": stored[..., 2]})
+    np.testing.assert_allclose(read_sky_map(other, flip="horizontal", rotate_deg=30.0).directions,
+                               d, atol=1e-6)
+    r2 = compare_exr(other, scene, flip="horizontal", rotate_deg=30.0)
+    assert r2.luminance_relative_error["max"] < 1e-5
+    bad = compare_exr(other, scene)
+    assert bad.luminance_relative_error["max"] > 0.05
