@@ -34,8 +34,10 @@ Our sky maps use OpenEXR's environment-map conventions with the OpenEXR environm
   Our reference is rendered at exactly those directions; statistics are weighted per pixel.
 
 Another renderer's map in a different convention is brought into ours with ``flip``
-(applied first) and ``rotate_deg`` (lat-long and direction sets): the pixel the file stores
-at azimuth *a* is compared with our pixel at azimuth *a* + ``rotate_deg``.  ``flip="horizontal"`` mirrors
+(applied first) and ``rotate_deg``: the pixel the file stores at azimuth *a* is compared
+with our sky at azimuth *a* + ``rotate_deg``.  Lat-long maps are shifted column-wise (linear
+interpolation for fractional shifts); for cube maps, fisheyes and direction sets the pixels'
+directions are transformed and our reference is rendered exactly there.  ``flip="horizontal"`` mirrors
 azimuth (a map whose azimuth runs west-ward), ``flip="vertical"`` swaps top and bottom.
 RGB files are read as **linear** RGB in ``colourspace`` (any colour-science name, default
 sRGB / Rec. 709 primaries); files that carry ``XYZ.X/Y/Z`` or a single ``Y`` channel are
@@ -495,8 +497,12 @@ class SkyMap:
     source : str
         How the colour was read (``XYZ channels``, ``Y channel`` or ``RGB as <colourspace>``).
     directions : ndarray or None
-        ``directions`` layout only: unit directions (rows, columns, 3), local frame, after
-        the flip/rotate options.
+        Where each pixel looks in our local frame (rows, columns, 3) when the comparison must
+        be rendered at explicit directions: the ``directions`` layout, and cube maps or
+        fisheyes with ``flip``/``rotate_deg`` (their pixel directions, transformed).  None
+        when the file is already in our layout (after the lat-long column operations).
+    solid_angles, valid : ndarray or None
+        Pixel solid angles [sr] and validity of a transformed cube map or fisheye.
     """
 
     xyz: np.ndarray | None
@@ -507,6 +513,8 @@ class SkyMap:
     header: dict
     source: str
     directions: np.ndarray | None = None
+    solid_angles: np.ndarray | None = None
+    valid: np.ndarray | None = None
 
 
 def _read_exr_channels(path):
@@ -580,9 +588,9 @@ def read_sky_map(path, *, layout: str = "auto", rotate_deg: float = 0.0, flip: s
         ``auto``: ``directions`` if the file has ``dir.X/Y/Z`` channels, else the ``envmap``
         header attribute, else the aspect ratio (2:1 lat-long, 1:6 cube map, square fisheye).
     rotate_deg : float
-        Lat-long and direction sets: the pixel stored at azimuth *a* is compared with ours at
-        *a* + ``rotate_deg`` [deg]; in lat-long maps fractional column shifts interpolate
-        linearly.
+        The pixel stored at azimuth *a* is compared with ours at *a* + ``rotate_deg`` [deg]:
+        lat-long maps are shifted column-wise (fractional shifts interpolate linearly); cube
+        maps, fisheyes and direction sets get transformed pixel directions.
     flip : {"none", "horizontal", "vertical", "both"}
         Mirror the file's columns (azimuth direction) and/or rows before rotating.
     colourspace : str
@@ -632,10 +640,7 @@ def read_sky_map(path, *, layout: str = "auto", rotate_deg: float = 0.0, flip: s
                          f"(height = 6 × width), got {w}×{h}")
     if lay == "fisheye" and w != h:
         raise ValueError(f"a fisheye image must be square, got {w}×{h}")
-    if lay not in ("latlong", "directions") and rotate_deg % 360.0 != 0.0:
-        raise ValueError(f"rotate_deg is only supported for lat-long maps and direction sets "
-                         f"(layout is {lay})")
-    dirs = None
+    dirs = solid = valid = None
     if lay == "directions":
         if not all(c in chans for c in ("dir.X", "dir.Y", "dir.Z")):
             raise ValueError(f"{os.fspath(path)!r}: layout 'directions' needs dir.X, dir.Y, "
@@ -644,27 +649,27 @@ def read_sky_map(path, *, layout: str = "auto", rotate_deg: float = 0.0, flip: s
         norm = np.linalg.norm(dirs, axis=-1, keepdims=True)
         if not np.all(np.isfinite(norm)) or np.any(np.abs(norm - 1.0) > 1e-3):
             raise ValueError(f"{os.fspath(path)!r}: dir.X/Y/Z must be unit vectors")
-        dirs = dirs / norm
-        if flip in ("horizontal", "both"):  # azimuth a → −a: mirror east–west
-            dirs[..., 0] = -dirs[..., 0]
-        if flip in ("vertical", "both"):
-            dirs[..., 2] = -dirs[..., 2]
-        r = math.radians(rotate_deg)  # azimuth a → a + rotate (from north toward east)
-        x, y = dirs[..., 0].copy(), dirs[..., 1].copy()
-        dirs[..., 0] = x * math.cos(r) + y * math.sin(r)
-        dirs[..., 1] = y * math.cos(r) - x * math.sin(r)
-    if lay == "cubemap" and flip != "none":
-        raise ValueError("flip is not supported for cube maps (each face has its own "
-                         "orientation); convert the cube map to our face order instead")
+        dirs = _transform_directions(dirs / norm, flip, rotate_deg)
+    elif lay in ("cubemap", "fisheye") and (flip != "none" or rotate_deg % 360.0 != 0.0):
+        # the file's pixel p looks, in its own convention, where our layout's pixel p looks;
+        # turn those directions into ours and render the reference exactly there
+        from .directions import CubeMapDirections, FisheyeDirections
+
+        dset = CubeMapDirections(w) if lay == "cubemap" else FisheyeDirections(w, h)
+        d, ok = dset.directions(0, dset.size)
+        dirs = _transform_directions(np.asarray(d, dtype=np.float64).reshape(h, w, 3), flip,
+                                     rotate_deg)
+        solid = np.asarray(dset.solid_angles(0, dset.size), dtype=np.float64).reshape(h, w)
+        valid = np.asarray(ok, dtype=bool).reshape(h, w)
 
     def transform(a):
-        if lay == "directions":  # the pixels stay; their directions were transformed
+        if lay != "latlong":  # the pixels stay; their directions were transformed
             return np.ascontiguousarray(a)
         if flip in ("horizontal", "both"):
             a = a[:, ::-1]
         if flip in ("vertical", "both"):
             a = a[::-1]
-        if lay == "latlong" and rotate_deg % 360.0 != 0.0:
+        if rotate_deg % 360.0 != 0.0:
             a = _rotate_columns(a, rotate_deg % 360.0)
         return np.ascontiguousarray(a)
 
@@ -673,7 +678,22 @@ def read_sky_map(path, *, layout: str = "auto", rotate_deg: float = 0.0, flip: s
     simple = {k: (v if isinstance(v, int | float | str) else str(v)) for k, v in header.items()}
     width, height = (w, h) if lay != "cubemap" else (w, w)
     return SkyMap(xyz=xyz, luminance=lum, layout=lay, width=width, height=height,
-                  header=simple, source=source, directions=dirs)
+                  header=simple, source=source, directions=dirs, solid_angles=solid,
+                  valid=valid)
+
+
+def _transform_directions(dirs, flip: str, rotate_deg: float):
+    """Apply ``flip`` then ``rotate_deg`` to unit directions (…, 3) in the local frame."""
+    dirs = np.array(dirs, dtype=np.float64)
+    if flip in ("horizontal", "both"):  # azimuth a → −a: mirror east–west
+        dirs[..., 0] = -dirs[..., 0]
+    if flip in ("vertical", "both"):
+        dirs[..., 2] = -dirs[..., 2]
+    r = math.radians(rotate_deg)  # azimuth a → a + rotate (from north toward east)
+    x, y = dirs[..., 0].copy(), dirs[..., 1].copy()
+    dirs[..., 0] = x * math.cos(r) + y * math.sin(r)
+    dirs[..., 1] = y * math.cos(r) - x * math.sin(r)
+    return dirs
 
 
 # --------------------------------------------------------------------------------------
@@ -692,7 +712,7 @@ def _scene_for(scene, sky_map: SkyMap):
     elif scene is None:
         scene = Scene()
     changes = {"sun_disc": False}
-    if sky_map.layout != "directions":  # else rendered at the file's own directions
+    if sky_map.directions is None:  # else rendered at the file's own directions
         changes.update(projection=sky_map.layout, width=sky_map.width, height=sky_map.height)
     names = {f.name for f in dataclasses.fields(scene)}
     if "output" in names:
@@ -748,8 +768,8 @@ def compare_exr(
         from .render import render
 
         sc = _scene_for(scene, sky)
-        reference = render(sc, directions=sky.directions) if sky.layout == "directions" \
-            else render(sc)
+        reference = render(sc) if sky.directions is None else \
+            render(sc, directions=sky.directions)
     else:
         sc = reference.scene
     ours_y = np.asarray(reference.luminance, dtype=np.float64)
@@ -788,7 +808,11 @@ def compare_exr(
                     "region": region, "sun_exclusion_deg": excl},
         "scene": scene_fields,
     }
-    weights = None if sky.layout == "directions" else solid  # no pixel areas known
+    if sky.directions is not None:  # rendered at explicit directions
+        solid = sky.solid_angles  # None for a bare direction set: per-pixel weights
+        if sky.valid is not None:
+            mask &= sky.valid
+    weights = solid
     return compare_images(o, r, other_space=o_space, reference_space=r_space, weights=weights,
                           mask=mask, scale_method=scale_method, info=info)
 

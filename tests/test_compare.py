@@ -297,10 +297,6 @@ class TestReadSkyMap:
         _write_exr(p4, {"Y": np.ones((8, 16))}, "cube")
         with pytest.raises(ValueError, match="six square faces"):
             read_sky_map(p4)
-        with pytest.raises(ValueError, match="rotate_deg"):
-            read_sky_map(p, rotate_deg=10.0)
-        with pytest.raises(ValueError, match="flip"):
-            read_sky_map(p, flip="horizontal")
 
     def test_bad_files(self, tmp_path):
         with pytest.raises(ValueError, match="does not exist"):
@@ -485,3 +481,26 @@ def test_compare_direction_set_file(tmp_path):
     assert r2.luminance_relative_error["max"] < 1e-5
     bad = compare_exr(other, scene)
     assert bad.luminance_relative_error["max"] > 0.05
+
+
+@pytest.mark.parametrize("projection,width,height", [("cubemap", 8, 8), ("fisheye", 16, 16)])
+@pytest.mark.parametrize("flip,rotate,azimuth", [("none", 40.0, 190.0),
+                                                 ("horizontal", 0.0, 210.0),
+                                                 ("horizontal", 25.0, 235.0)])
+def test_rotate_and_flip_cube_maps_and_fisheyes(tmp_path, projection, width, height, flip,
+                                                rotate, azimuth):
+    # their map: sun at azimuth 150°.  Mirrored (a → −a) and turned by `rotate`, it shows the
+    # sky of a sun at −150° + rotate: our reference for that scene must match it exactly
+    import atmoscatter as ac
+
+    def scene(az):
+        return ac.Scene(model="preetham", turbidity=3.0, sun_elevation_deg=35.0,
+                        sun_azimuth_deg=az, projection=projection, width=width, height=height)
+
+    path = ac.write_exr(tmp_path / "theirs.exr", ac.render(scene(150.0)))
+    r = compare_exr(path, scene(azimuth), flip=flip, rotate_deg=rotate)
+    assert r.weighting == "solid_angle" and r.pixels_compared > 0
+    assert r.luminance_relative_error["max"] < 1e-5
+    assert r.delta_e_2000["max"] < 1e-3
+    # and without the options they disagree
+    assert compare_exr(path, scene(azimuth)).luminance_relative_error["max"] > 0.05
