@@ -850,7 +850,7 @@ def add_compare_parser(subparsers):
     p.add_argument("--layout", choices=LAYOUTS, default="auto",
                    help="layout of OTHER.exr (default: from its envmap attribute or shape)")
     p.add_argument("--rotate", type=float, default=0.0, metavar="DEG",
-                   help="lat-long: the file's azimuth a is compared with ours at a + DEG")
+                   help="the file's azimuth a is compared with ours at a + DEG")
     p.add_argument("--flip", choices=FLIPS, default="none",
                    help="mirror OTHER.exr's columns (azimuth) and/or rows before rotating")
     p.add_argument("--colourspace", default="sRGB",
