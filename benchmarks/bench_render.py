@@ -52,7 +52,8 @@ def scene_for(model):
     return ac.Scene(model=model, sun_elevation_deg=35.0, sun_azimuth_deg=0.0, turbidity=3.0)
 
 
-ANALYTIC = [m for m in ("preetham", "cie_overcast", "cie_clear") if m in ac.MODELS] + ["bench_toy"]
+ANALYTIC = [m for m in ("preetham", "hoffman_preetham", "cie_overcast", "cie_clear")
+            if m in ac.MODELS] + ["bench_toy"]
 NUMERICAL = [m for m in ("single_scattering", "multiple_scattering") if m in ac.MODELS]
 CASES = [(m, n) for m in ANALYTIC for n in (10**4, 10**5, 10**6)]
 # the numerical models take ~1-3 ms per direction today: 2000 directions in the quick run,

@@ -344,7 +344,7 @@ class TestPhysicalAdapter:
                   output="xyz", width=8, height=4, time="2024-01-03T12:00:00Z")
         img = ac.render(s)
         expected = _independent_xyz(law, plan(s).distance_au)
-        np.testing.assert_allclose(img.xyz[0, 0], expected, rtol=5e-3)
+        np.testing.assert_allclose(img.xyz[0, 0], expected, rtol=2e-3)
 
     def test_rgb_sampling_power_law_is_exact(self, fake_single):
         law = lambda wl: 0.02 * (550.0 / wl) ** 4  # noqa: E731
@@ -353,7 +353,7 @@ class TestPhysicalAdapter:
         img = ac.render(s)
         assert fake.atmospheres[0].n_wavelengths == 3  # only the three RGB samples
         expected = _independent_xyz(law, plan(s).distance_au)
-        np.testing.assert_allclose(img.xyz[0, 0], expected, rtol=5e-3)
+        np.testing.assert_allclose(img.xyz[0, 0], expected, rtol=2e-3)
 
     def test_luminance_only_matches_Y(self, fake_single):
         fake_single(lambda wl: 0.01 * (550.0 / wl) ** 2)
