@@ -271,3 +271,8 @@ def test_written_files_get_normal_permissions(tmp_path):
     mask = os.umask(0)
     os.umask(mask)
     assert stat.S_IMODE(os.stat(p).st_mode) == 0o666 & ~mask
+
+
+def test_directory_as_output_is_a_clear_error(tmp_path):
+    with pytest.raises(ValueError, match="is a directory"):
+        write_exr(tmp_path, ac.render(scene()))
