@@ -24,6 +24,8 @@ import json
 import sys
 import time
 
+from .compare import add_compare_parser, run_compare
+
 __all__ = ["main"]
 
 
@@ -83,6 +85,7 @@ def _parser() -> argparse.ArgumentParser:
     common(v)
 
     sub.add_parser("models", help="list the available sky models")
+    add_compare_parser(sub)
     return p
 
 
@@ -213,7 +216,7 @@ def main(argv=None) -> int:
         parser.print_help()
         return 2
     commands = {"render": _cmd_render, "batch": _cmd_batch, "info": _cmd_info,
-                "preview": _cmd_preview, "models": _cmd_models}
+                "preview": _cmd_preview, "models": _cmd_models, "compare": run_compare}
     try:
         return commands[args.command](args, sys.stdout)
     except KeyboardInterrupt:
