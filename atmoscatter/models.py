@@ -453,7 +453,9 @@ def _make_physical_prepare(function_name):
         sun = plan.sun_direction
         kwargs = {"altitude": scene.altitude}
         if function_name == "multiple_scattering":
-            kwargs.update(orders=scene.orders, ground_albedo=scene.ground_albedo)
+            kwargs["ground_albedo"] = scene.ground_albedo
+            if scene.orders is not None:
+                kwargs["orders"] = scene.orders
         elif scene.method is not None:
             kwargs["method"] = scene.method
         rgb_sampled = not (scene.sampling == "spectral" or scene.output == "spectral")

@@ -100,8 +100,9 @@ class Scene:
     ground_albedo : float
         Lambertian ground albedo in [0, 1]: used by multiple scattering and for
         the documented ground value below a ground observer's horizon.
-    orders : int
-        Scattering orders of ``multiple_scattering`` (1 = single scattering).
+    orders : int or None
+        Scattering orders of ``multiple_scattering`` (1 = single scattering;
+        ``None`` = that function's default).
     sampling : str
         ``rgb`` (the atmosphere's three sample wavelengths 680/550/440 nm) or
         ``spectral`` (380–780 nm every ``wavelength_step`` nm) for the physical
@@ -148,7 +149,7 @@ class Scene:
     altitude: float = 0.0
     atmosphere: str = "earth"
     ground_albedo: float = 0.0
-    orders: int = 4
+    orders: int | None = None
     sampling: str = "rgb"
     wavelength_step: float = 10.0
     output: str = "rgb"
@@ -353,7 +354,8 @@ def _validate(s: Scene) -> None:
                "the scene needs either a time (with latitude/longitude) or sun_elevation_deg")
     _check(s.altitude >= 0.0, f"altitude must be in [0, inf) m, got {s.altitude!r}")
     _check(0.0 <= s.ground_albedo <= 1.0, f"ground_albedo must be in [0, 1], got {s.ground_albedo!r}")
-    _check(s.orders >= 1, f"orders must be in [1, inf), got {s.orders!r}")
+    if s.orders is not None:
+        _check(s.orders >= 1, f"orders must be in [1, inf), got {s.orders!r}")
     _check(1.0 <= s.wavelength_step <= 100.0,
            f"wavelength_step must be in [1, 100] nm, got {s.wavelength_step!r}")
     for name, options in (("projection", PROJECTIONS), ("output", OUTPUTS),

@@ -1,6 +1,7 @@
 """The renderer follows the plan: skipped work is not done, memory stays bounded,
 physical models come out in absolute units."""
 
+import dataclasses
 import importlib
 import math
 import tracemalloc
@@ -306,6 +307,8 @@ class FakePhysical:
 
 @pytest.fixture
 def fake_single(monkeypatch):
+    previous = ac.MODELS.get("single_scattering")
+
     def install(law):
         fake = FakePhysical(law)
         monkeypatch.setattr(ac, "single_scattering", fake, raising=False)
@@ -314,6 +317,8 @@ def fake_single(monkeypatch):
 
     yield install
     unregister_model("single_scattering")
+    if previous is not None:  # put the real adapter back for the rest of the session
+        register_model(previous)
 
 
 def _independent_xyz(f_of_lambda, distance_au):
@@ -382,6 +387,30 @@ class TestPhysicalAdapter:
         img = ac.render(s)
         assert plan(s).symmetry
         assert sum(fake.sizes) < 0.6 * img.directions_set.size
+
+
+def test_multiple_scattering_adapter_passes_orders_and_albedo(monkeypatch):
+    seen = []
+
+    def fake(atmosphere, view_directions, sun_direction, **kw):
+        seen.append(kw)
+        return np.full(view_directions.shape[:-1] + (atmosphere.n_wavelengths,), 1e-2)
+
+    previous = ac.MODELS.get("multiple_scattering")
+    monkeypatch.setattr(ac, "multiple_scattering", fake, raising=False)
+    register_model(physical_adapter("multiple_scattering"), replace=True)
+    try:
+        s = scene(model="multiple_scattering", orders=3, ground_albedo=0.25, altitude=100.0,
+                  width=8, height=4)
+        ac.render(s)
+        assert seen[0] == {"altitude": 100.0, "ground_albedo": 0.25, "orders": 3}
+        seen.clear()
+        ac.render(dataclasses.replace(s, orders=None))  # None: the function's default
+        assert "orders" not in seen[0]
+    finally:
+        unregister_model("multiple_scattering")
+        if previous is not None:
+            register_model(previous)
 
 
 def test_rgb_sampling_matrix_reproduces_power_laws():
