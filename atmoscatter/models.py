@@ -97,6 +97,8 @@ class ModelAdapter:
         Stated accuracy of the model (recorded in the EXR header).
     turbidity_range : tuple of float, optional
         Turbidity range of a fitted model (outside it the model clamps and warns).
+    accepts_atmosphere : bool
+        The model takes a custom :class:`~atmoscatter.Atmosphere` (``plan.atmosphere``).
     """
 
     name: str
@@ -110,6 +112,7 @@ class ModelAdapter:
     wavelengths: Callable = field(default=lambda scene: ())
     error_estimate: str = "not stated"
     turbidity_range: tuple | None = None
+    accepts_atmosphere: bool = False
 
 
 MODELS: dict[str, ModelAdapter] = {}
@@ -345,7 +348,11 @@ def _build_atmosphere(scene, wavelengths):
         atm = presets.mars_atmosphere(wl)
     else:
         atm = presets.keller_bohn_atmosphere(wl)
-    # leave out constituents that neither scatter nor absorb (no haze at T = 1)
+    return _drop_empty(atm)
+
+
+def _drop_empty(atm):
+    """Leave out constituents that neither scatter nor absorb (no haze at T = 1)."""
     keep = tuple(c for c in atm.constituents if not c.is_empty)
     if len(keep) != len(atm.constituents):
         import dataclasses  # noqa: PLC0415
@@ -449,7 +456,12 @@ def _make_physical_prepare(function_name):
         if fn is None:
             raise ValueError(f"model {function_name!r} is not available in this installation")
         wl = np.asarray(plan.wavelengths, dtype=float)
-        atm = _build_atmosphere(scene, wl)
+        if plan.atmosphere is not None:
+            atm = _drop_empty(plan.atmosphere)
+            rgb_sampled = wl.size <= 3
+        else:
+            atm = _build_atmosphere(scene, wl)
+            rgb_sampled = not (scene.sampling == "spectral" or scene.output == "spectral")
         sun = plan.sun_direction
         kwargs = {"altitude": scene.altitude}
         if function_name == "multiple_scattering":
@@ -458,7 +470,6 @@ def _make_physical_prepare(function_name):
                 kwargs["orders"] = scene.orders
         elif scene.method is not None:
             kwargs["method"] = scene.method
-        rgb_sampled = not (scene.sampling == "spectral" or scene.output == "spectral")
         convert = _per_irradiance_converter(wl, rgb_sampled, plan)
 
         def evaluate(directions):
@@ -559,6 +570,7 @@ def physical_adapter(function_name: str) -> ModelAdapter:
         cost_per_direction=cost,
         wavelengths=_physical_wavelengths,
         error_estimate=err,
+        accepts_atmosphere=True,
     )
 
 

@@ -548,6 +548,9 @@ class Plan:
         Directions per model call (bounds memory).
     notes : tuple of str
         Human-readable reasons for each decision.
+    atmosphere : Atmosphere or None
+        A custom :class:`~atmoscatter.Atmosphere` given to :func:`plan` (physical
+        models only); None means the scene's preset.
     """
 
     model: str
@@ -569,6 +572,7 @@ class Plan:
     distance_au: float
     batch_size: int
     notes: tuple = field(default_factory=tuple)
+    atmosphere: object = field(default=None, compare=False)
 
     @property
     def sun_direction(self) -> np.ndarray:
@@ -578,7 +582,9 @@ class Plan:
 
     def to_dict(self) -> dict:
         """The plan as a JSON-serialisable dictionary."""
-        d = dataclasses.asdict(self)
+        d = {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
+        d["atmosphere"] = None if self.atmosphere is None else getattr(
+            self.atmosphere, "name", "custom")
         d["layers"] = list(self.layers)
         d["wavelengths"] = list(self.wavelengths)
         d["notes"] = list(self.notes)
@@ -621,7 +627,7 @@ def _ground_value_text(scene: Scene) -> str:
             "sky and the transmitted direct sun (rho * E_h / pi)")
 
 
-def plan(scene: Scene, *, batch_size: int | None = None) -> Plan:
+def plan(scene: Scene, *, batch_size: int | None = None, atmosphere=None) -> Plan:
     """Decide the minimal work for ``scene``.
 
     Decisions (each recorded in :attr:`Plan.notes`):
@@ -639,6 +645,11 @@ def plan(scene: Scene, *, batch_size: int | None = None) -> Plan:
       for the models whose per-direction cost exceeds the cost of finding the
       pairs).
     * **sun disc** — only evaluated when ``sun_disc`` is true.
+
+    ``atmosphere`` (an :class:`~atmoscatter.Atmosphere`) replaces the scene's
+    preset for the physical models; its wavelengths are then the ones
+    evaluated (three or fewer: expanded as a power law; more: integrated as a
+    spectrum, which should cover 380–780 nm).
     """
     from .models import get_model  # noqa: PLC0415
 
@@ -679,8 +690,26 @@ def plan(scene: Scene, *, batch_size: int | None = None) -> Plan:
         notes.append(f"turbidity {scene.turbidity:g} is outside {scene.model}'s fit range "
                      f"{rng[0]:g}-{rng[1]:g}: the model clamps it (with a warning)")
 
+    if atmosphere is not None:
+        if not adapter.accepts_atmosphere:
+            raise ValueError(
+                f"a custom atmosphere is used by the physical models only "
+                f"({', '.join(n for n, a in _models().items() if a.accepts_atmosphere)}); "
+                f"{scene.model!r} does not take one")
+        wl_custom = tuple(float(w) for w in np.atleast_1d(atmosphere.wavelengths_array))
+        if len(wl_custom) < 2:
+            raise ValueError("a custom atmosphere needs at least 2 wavelengths to give a colour")
+        live = [c for c in atmosphere.constituents if not c.is_empty]
+        haze = any(c.name not in ("rayleigh", "ozone") for c in live)
+        notes.append(f"custom atmosphere {getattr(atmosphere, 'name', 'custom')!r} with "
+                     f"{len(wl_custom)} wavelengths; constituents evaluated: "
+                     + ", ".join(c.name for c in live))
+
     # spectral sampling ----------------------------------------------------------
-    if adapter.spectral:
+    if atmosphere is not None:
+        wavelengths = wl_custom
+        integration = "Y only" if quantity == "Y" else "XYZ"
+    elif adapter.spectral:
         wavelengths = adapter.wavelengths(scene)
         integration = "Y only" if quantity == "Y" else "XYZ"
         if quantity == "Y":
@@ -740,6 +769,7 @@ def plan(scene: Scene, *, batch_size: int | None = None) -> Plan:
         distance_au=float(distance),
         batch_size=bs,
         notes=tuple(notes),
+        atmosphere=atmosphere,
     )
 
 

@@ -413,6 +413,44 @@ def test_multiple_scattering_adapter_passes_orders_and_albedo(monkeypatch):
             register_model(previous)
 
 
+class TestCustomAtmosphere:
+    def _atm(self, wl=(680.0, 550.0, 440.0)):
+        wl = np.asarray(wl)
+        ray = ac.Constituent("rayleigh", ac.rayleigh_scattering(wl), 0.0,
+                             ac.ExponentialProfile(8000.0), ac.RayleighPhase())
+        empty = ac.Constituent("dust", np.zeros(wl.size), 0.0, ac.ExponentialProfile(1000.0),
+                               ac.HenyeyGreensteinPhase(0.7))
+        return ac.Atmosphere(6.36e6, 6.42e6, tuple(wl), (ray, empty), name="my_air")
+
+    def test_custom_atmosphere_reaches_the_model(self, fake_single):
+        fake = fake_single(lambda wl: 0.02 * (550.0 / wl) ** 4)
+        atm = self._atm()
+        s = scene(model="single_scattering", width=8, height=4, output="xyz")
+        p = plan(s, atmosphere=atm)
+        assert p.wavelengths == (680.0, 550.0, 440.0) and not p.haze
+        assert any("custom atmosphere 'my_air'" in n for n in p.notes)
+        assert p.to_dict()["atmosphere"] == "my_air"
+        img = ac.render(s, atmosphere=atm)
+        # the empty constituent is dropped, the rest is the user's atmosphere
+        assert [c.name for c in fake.atmospheres[0].constituents] == ["rayleigh"]
+        assert fake.atmospheres[0].wavelengths == atm.wavelengths
+        expected = _independent_xyz(lambda wl: 0.02 * (550.0 / wl) ** 4, p.distance_au)
+        np.testing.assert_allclose(img.xyz[0, 0], expected, rtol=2e-3)
+        assert "my_air" in img.metadata["atmoscatter:custom_atmosphere"]
+
+    def test_spectral_custom_atmosphere_and_sun_disc(self, fake_single):
+        fake_single(lambda wl: 0.01 * np.ones_like(wl))
+        atm = self._atm(np.arange(380.0, 781.0, 20.0))
+        s = scene(model="single_scattering", width=64, height=32, sun_disc=True,
+                  output="luminance")
+        img = ac.render(s, atmosphere=atm)
+        assert np.isfinite(img.luminance).all() and img.luminance.max() > 1e5  # the disc
+
+    def test_only_physical_models_take_one(self):
+        with pytest.raises(ValueError, match="physical models only"):
+            plan(scene(), atmosphere=self._atm())
+
+
 def test_rgb_sampling_matrix_reproduces_power_laws():
     lam = np.array([680.0, 550.0, 440.0])
     A = rgb_sampling_matrix(lam)
