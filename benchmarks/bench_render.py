@@ -56,8 +56,8 @@ ANALYTIC = [m for m in ("preetham", "hoffman_preetham", "cie_overcast", "cie_cle
             if m in ac.MODELS] + ["bench_toy"]
 NUMERICAL = [m for m in ("single_scattering", "multiple_scattering") if m in ac.MODELS]
 CASES = [(m, n) for m in ANALYTIC for n in (10**4, 10**5, 10**6)]
-# the numerical models take ~1-3 ms per direction today: 2000 directions in the quick run,
-# 10^4-10^6 with ATMOSCATTER_BENCH_FULL=1
+# the numerical models cost µs to ms per direction (plus set-up): 2000 directions in the quick
+# run, 10^4-10^6 with ATMOSCATTER_BENCH_FULL=1
 CASES += [(m, n) for m in NUMERICAL for n in ((10**4, 10**5, 10**6) if FULL else (2000,))]
 
 
