@@ -156,6 +156,10 @@ def _cmd_batch(args, out) -> int:
 def _fmt_header_value(v):
     if isinstance(v, tuple) and len(v) == 2 and hasattr(v[0], "tolist"):
         return f"{v[0].tolist()} - {v[1].tolist()}"
+    if hasattr(v, "name") and hasattr(v, "value"):  # OpenEXR enums
+        return str(v.name)
+    if isinstance(v, tuple) and all(isinstance(x, float) for x in v):
+        return "(" + ", ".join(f"{x:.6g}" for x in v) + ")"
     return str(v)
 
 
@@ -185,8 +189,17 @@ def _cmd_info(args, out) -> int:
         print(f"  {k:<28} {_fmt_header_value(v)}", file=out)
     if img.plan is not None:
         print("plan:", file=out)
-        for k, v in sorted(img.plan.items()):
-            print(f"  {k:<20} {v}", file=out)
+        try:
+            from .scene import Plan  # noqa: PLC0415
+
+            d = dict(img.plan)
+            d.update(layers=tuple(d["layers"]), wavelengths=tuple(d["wavelengths"]),
+                     notes=tuple(d["notes"]), atmosphere=None)
+            text = Plan(**d).explain()
+        except (TypeError, KeyError):  # a plan written by another version
+            text = "\n".join(f"{k:<20} {v}" for k, v in sorted(img.plan.items()))
+        for line in text.splitlines():
+            print(f"  {line}", file=out)
     return 0
 
 
