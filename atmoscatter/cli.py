@@ -23,6 +23,7 @@ import argparse
 import json
 import sys
 import time
+import warnings
 
 from .compare import add_compare_parser, run_compare
 
@@ -228,6 +229,9 @@ def main(argv=None) -> int:
     if not args.command:
         parser.print_help()
         return 2
+    # colour-science announces at import that its optional plotting needs matplotlib; that
+    # is noise for a command-line user (the package does not plot)
+    warnings.filterwarnings("ignore", message='"Matplotlib" related API features')
     commands = {"render": _cmd_render, "batch": _cmd_batch, "info": _cmd_info,
                 "preview": _cmd_preview, "models": _cmd_models, "compare": run_compare}
     try:
