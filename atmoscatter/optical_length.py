@@ -212,7 +212,8 @@ def _distance_to_ground(h0, r0, mu, R):
     hit = (mu < 0) & (disc >= 0)
     q = -b + safe_sqrt(disc)  # > 0 where b < 0
     with np.errstate(divide="ignore", invalid="ignore"):
-        t = np.where(hit & (q > 0), c / np.where(q > 0, q, 1.0), np.inf)
+        ok = hit & (q > 0)
+        t = np.where(ok, c / np.where(ok, q, 1.0), np.inf)
     return np.where(hit & (c == 0), 0.0, t)
 
 
