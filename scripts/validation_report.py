@@ -408,6 +408,54 @@ def sun_section():
     return lines
 
 
+def reference_orders_section(out_dir, width):
+    """How the multiple-scattering reference converges with the number of orders."""
+    lines = ["## Convergence of the reference in scattering orders", ""]
+    if "multiple_scattering" not in _models():
+        return lines + ["**Not generated**: `multiple_scattering` is not available.", ""]
+    orders = (1, 2, 3, 4, 6, 8, 12, 16, 20)
+    top = 30
+    cases = [(2.0, 30.0), (6.0, 30.0), (6.0, 5.0)]
+    res = {}
+    for T, el in cases:
+        def lum(n, T=T, el=el):
+            sc = ac.Scene(model="multiple_scattering", orders=n, turbidity=T,
+                          sun_elevation_deg=el, sun_azimuth_deg=180.0, projection="latlong",
+                          width=width, height=width // 2, output="xyz", sun_disc=False)
+            img = ac.render(sc)
+            return np.asarray(img.luminance, float)[np.asarray(img.alpha) > 0]
+
+        ref = lum(top)
+        res[(T, el)] = [float(np.max(np.abs(lum(n) / ref - 1.0))) for n in orders]
+    lines += [f"Maximum relative luminance difference over the sky ({width}×{width // 2} "
+              f"lat-long) between `orders = n` and `orders = {top}`; the report's reference uses "
+              f"{REFERENCE_ORDERS}.", "",
+              "| orders | " + " | ".join(f"T = {T:g}, sun {el:g}°" for T, el in cases) + " |",
+              "|---|" + "---|" * len(cases)]
+    for k, n in enumerate(orders):
+        lines.append(f"| {n} | " + " | ".join(f"{res[c][k]:.2e}" for c in cases) + " |")
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        fig, ax = plt.subplots(figsize=(4.5, 3))
+        for c in cases:
+            ax.semilogy(orders, np.maximum(res[c], 1e-16), "o-", ms=3,
+                        label=f"T = {c[0]:g}, sun {c[1]:g}°")
+        ax.set_xlabel("scattering orders")
+        ax.set_ylabel(f"max |Y_n / Y_{top} − 1|")
+        ax.legend(fontsize=7)
+        fig.tight_layout()
+        fig.savefig(os.path.join(out_dir, "reference_orders.png"), dpi=80)
+        plt.close(fig)
+        lines += ["", "![convergence in scattering orders](validation/reference_orders.png)"]
+    except ImportError:
+        pass
+    return lines + [""]
+
+
 def convergence_section(docs_dir):
     """Include the numerical issue's convergence study (benchmarks/convergence.py output)."""
     lines = ["## Convergence of the numerical models", ""]
@@ -527,7 +575,8 @@ def main(argv=None) -> int:
              f"(atmoscatter {ac.__version__}, {_dt.date.today().isoformat()}); re-run it to "
              "regenerate.  Available sky models: "
              f"{', '.join(f'`{m}`' for m in _models()) or 'none'}.", ""]
-    lines += model_lines + sun_section() + convergence_section(args.out) + speed_section(timings, out_dir)
+    lines += (model_lines + reference_orders_section(out_dir, args.width) + sun_section()
+              + convergence_section(args.out) + speed_section(timings, out_dir))
     lines += ["## Gallery", "", "Images rendered by the package: see [gallery](gallery.md).", "",
               f"*Report generated in {time.perf_counter() - t0:.0f} s.*"]
     os.makedirs(args.out, exist_ok=True)
