@@ -112,11 +112,39 @@ class TestDiffuseIrradiance:
         up = diffuse_irradiance(lambda d: np.ones(len(d)), normal=(0, 0, -1), domain="sphere")
         assert up == pytest.approx(np.pi, rel=1e-13)
 
-    def test_vertical_plane_uniform_sky(self):
-        # a vertical plane sees half of the sky dome: E = πL/2 (by symmetry); the rule is
-        # cut at the horizon, so only the documented ~1e-3 accuracy is claimed
-        e = diffuse_irradiance(lambda d: np.ones(len(d)), normal=(1.0, 0.0, 0.0))
-        assert e == pytest.approx(np.pi / 2, rel=1e-3)
+    @pytest.mark.parametrize("tilt_deg", [0.0, 10.0, 45.0, 90.0, 120.0, 170.0, 180.0])
+    def test_tilted_plane_uniform_sky(self, tilt_deg):
+        # isotropic sky on a plane tilted by β from horizontal: E = πL (1 + cos β)/2 (the sky
+        # view factor of the tilted plane, e.g. Liu & Jordan 1963)
+        b = np.radians(tilt_deg)
+        n = (0.6 * np.sin(b), -0.8 * np.sin(b), np.cos(b))
+        e = diffuse_irradiance(lambda d: np.full(len(d), 2.0), normal=n)
+        assert e == pytest.approx(2.0 * np.pi * (1 + np.cos(b)) / 2, rel=1e-12, abs=1e-12)
+
+    def test_vertical_plane_cie_overcast(self):
+        # ∫_{|φ|<π/2} ∫_0^{π/2} L_z (1 + 2 cos θ)/3 · sinθ cos φ · sinθ dθ dφ
+        #   = (2 L_z / 3)(π/4 + 2/3) = L_z (π/6 + 4/9);  E_v/E_h = 0.396 (the known ratio)
+        Lz = 1000.0
+        e = diffuse_irradiance(lambda d: Lz * (1 + 2 * d[:, 2]) / 3, normal=(0.0, -1.0, 0.0))
+        assert e == pytest.approx(Lz * (np.pi / 6 + 4 / 9), rel=1e-12)
+        assert e / (7 * np.pi * Lz / 9) == pytest.approx(0.396, abs=5e-4)
+
+    def test_tilted_plane_against_adaptive_quadrature(self):
+        # a sky with a sun lobe on a plane tilted 60° toward the south-east, against
+        # scipy.integrate.dblquad over the dome in (θ, φ) with the clamped cosine
+        s = np.array([0.3, -0.5, np.sqrt(0.66)])
+        n = np.array([0.5 * np.sin(np.radians(60)), -np.sqrt(0.75) * np.sin(np.radians(60)),
+                      np.cos(np.radians(60))])
+
+        def sky(d):
+            return (1 + 2 * d[..., 2]) / 3 + 5 * np.exp(10 * (d @ s - 1))
+
+        def f(phi, theta):
+            d = _dir(np.array([theta]), np.array([phi]))
+            return float(sky(d)[0] * max(float(d[0] @ n), 0.0) * np.sin(theta))
+
+        ref, _ = integrate.dblquad(f, 0, np.pi / 2, 0, 2 * np.pi, epsabs=1e-11, epsrel=1e-10)
+        assert diffuse_irradiance(sky, normal=n) == pytest.approx(ref, rel=1e-8)
         # whole sphere, tilted normal: exact
         e = diffuse_irradiance(lambda d: 1 + d @ np.array([0.3, -0.2, 0.5]),
                                normal=(1.0, 2.0, 2.0), domain="sphere")
