@@ -208,32 +208,52 @@ def _out_dtype(*arrays) -> type:
 # ---------------------------------------------------------------------------------------------
 # ΔT
 # ---------------------------------------------------------------------------------------------
+def _horner(x, coeffs):
+    """Σ coeffs[i] x^i by Horner's rule (coefficients in increasing order)."""
+    out = np.full_like(x, coeffs[-1])
+    for c in coeffs[-2::-1]:
+        out = out * x + c
+    return out
+
+
+#: Espenak & Meeus (2006) ΔT pieces: (start year, reference year, coefficients in t = y − ref).
+_DELTA_T_PIECES = (
+    (1800.0, 1800.0, (13.72, -0.332447, 0.0068612, 0.0041116, -0.00037436, 0.0000121272,
+                      -0.0000001699, 0.000000000875)),
+    (1860.0, 1860.0, (7.62, 0.5737, -0.251754, 0.01680668, -0.0004473624, 1.0 / 233174.0)),
+    (1900.0, 1900.0, (-2.79, 1.494119, -0.0598939, 0.0061966, -0.000197)),
+    (1920.0, 1920.0, (21.20, 0.84493, -0.076100, 0.0020936)),
+    (1941.0, 1950.0, (29.07, 0.407, -1.0 / 233.0, 1.0 / 2547.0)),
+    (1961.0, 1975.0, (45.45, 1.067, -1.0 / 260.0, -1.0 / 718.0)),
+    (1986.0, 2000.0, (63.86, 0.3345, -0.060374, 0.0017275, 0.000651814, 0.00002373599)),
+    (2005.0, 2000.0, (62.92, 0.32217, 0.005589)),
+    (2050.0, None, None),  # −20 + 32 u² − 0.5628 (2150 − y)
+    (2150.0, None, None),  # long-term parabola −20 + 32 u², u = (y − 1820)/100
+)
+_DELTA_T_EDGES = np.array([p[0] for p in _DELTA_T_PIECES])
+
+
+def _delta_t_piece(k: int, y: np.ndarray) -> np.ndarray:
+    u = (y - 1820.0) / 100.0
+    if k == 0 or k == len(_DELTA_T_PIECES):  # before 1800 / from 2150: long-term parabola
+        return -20.0 + 32.0 * u * u
+    _, ref, coeffs = _DELTA_T_PIECES[k - 1]
+    if coeffs is None:  # 2050–2150
+        return -20.0 + 32.0 * u * u - 0.5628 * (2150.0 - y)
+    return _horner(y - ref, coeffs)
+
+
 def _delta_t_of_year(y: np.ndarray) -> np.ndarray:
     """Espenak & Meeus (2006) ΔT polynomials [s] for decimal year ``y`` (any year)."""
     y = np.asarray(y, dtype=np.float64)
-    u = (y - 1820.0) / 100.0
-    out = -20.0 + 32.0 * u * u  # long-term parabola (before 1800 and after 2150)
-    pieces = [
-        (1800.0, 1860.0, 1800.0, (13.72, -0.332447, 0.0068612, 0.0041116, -0.00037436,
-                                  0.0000121272, -0.0000001699, 0.000000000875)),
-        (1860.0, 1900.0, 1860.0, (7.62, 0.5737, -0.251754, 0.01680668, -0.0004473624,
-                                  1.0 / 233174.0)),
-        (1900.0, 1920.0, 1900.0, (-2.79, 1.494119, -0.0598939, 0.0061966, -0.000197)),
-        (1920.0, 1941.0, 1920.0, (21.20, 0.84493, -0.076100, 0.0020936)),
-        (1941.0, 1961.0, 1950.0, (29.07, 0.407, -1.0 / 233.0, 1.0 / 2547.0)),
-        (1961.0, 1986.0, 1975.0, (45.45, 1.067, -1.0 / 260.0, -1.0 / 718.0)),
-        (1986.0, 2005.0, 2000.0, (63.86, 0.3345, -0.060374, 0.0017275, 0.000651814,
-                                  0.00002373599)),
-        (2005.0, 2050.0, 2000.0, (62.92, 0.32217, 0.005589)),
-    ]
-    for lo, hi, y0, coeffs in pieces:
-        sel = (y >= lo) & (y < hi)
-        if np.any(sel):
-            t = y - y0
-            out = np.where(sel, np.polynomial.polynomial.polyval(t, coeffs), out)
-    sel = (y >= 2050.0) & (y < 2150.0)
-    if np.any(sel):
-        out = np.where(sel, -20.0 + 32.0 * u * u - 0.5628 * (2150.0 - y), out)
+    piece = np.searchsorted(_DELTA_T_EDGES, y, side="right")  # NaN → last piece (NaN out)
+    present = np.unique(piece)
+    if present.size == 1:
+        return _delta_t_piece(int(present[0]), y)
+    out = np.empty_like(y)
+    for k in present:
+        sel = piece == k
+        out[sel] = _delta_t_piece(int(k), y[sel])
     return out
 
 
@@ -384,7 +404,7 @@ def _spa_time_terms(d: np.ndarray, dt_s: np.ndarray, *, run_step=None) -> dict[s
     deps = deps * (_DEG / 36e6)
     # obliquity (Eq. 24–25)
     u = jme / 10.0
-    eps0 = np.polynomial.polynomial.polyval(
+    eps0 = _horner(
         u, (84381.448, -4680.93, -1.55, 1999.25, -51.38, -249.67, -39.05, 7.12, 27.87, 5.79, 2.45)
     )
     eps = eps0 * (_DEG / 3600.0) + deps
@@ -401,7 +421,7 @@ def _spa_time_terms(d: np.ndarray, dt_s: np.ndarray, *, run_step=None) -> dict[s
     q = alpha - dpsi * ce - gm_slow * _DEG
     q = (q + np.pi) % _TWO_PI - np.pi
     # equation of time (Eq. A.1–A.2) [min]
-    m = np.polynomial.polynomial.polyval(
+    m = _horner(
         jme, (280.4664567, 360007.6982779, 0.03032028, 1 / 49931.0, -1 / 15300.0, -1 / 2.0e6)
     )
     e_deg = (m - 0.0057183 - alpha / _DEG + dpsi * ce / _DEG + 180.0) % 360.0 - 180.0
