@@ -138,19 +138,21 @@ def _matrices(colourspace: str):
 
     check_option(colourspace, "colourspace", colour.RGB_COLOURSPACES.keys())
     cs = colour.RGB_COLOURSPACES[colourspace]
-    # RGB → XYZ is the colourspace's (normalised primary) matrix; XYZ → RGB is its exact
-    # inverse, so the two conversions round-trip to rounding error.  (colour-science's
-    # sRGB carries the IEC 61966-2-1 matrices, each rounded to 4 decimals, which are
-    # inverses of each other only to 4e-5.)
-    rgb_to_xyz = np.asarray(cs.matrix_RGB_to_XYZ, dtype=float)
-    return np.linalg.inv(rgb_to_xyz), rgb_to_xyz
+    # XYZ → RGB is colour-science's matrix for the colourspace (for sRGB the IEC 61966-2-1
+    # published matrix), so results equal ``colour.XYZ_to_RGB`` without adaptation to
+    # rounding; RGB → XYZ is its exact inverse so the two round-trip to rounding error.
+    # (colour-science's two sRGB matrices are each rounded to 4 decimals and are inverses of
+    # each other only to 4e-5.)
+    xyz_to_rgb = np.asarray(cs.matrix_XYZ_to_RGB, dtype=float)
+    return xyz_to_rgb, np.linalg.inv(xyz_to_rgb)
 
 
 def XYZ_to_linear_rgb(XYZ, colourspace: str = "sRGB"):
     """CIE XYZ → linear RGB (no transfer function) in ``colourspace``.
 
-    Uses the inverse of the colourspace's normalised primary matrix from colour-science
-    (exact inverse of :func:`linear_rgb_to_XYZ`), without chromatic adaptation: XYZ is taken as absolute (an equal-RGB pixel has the colourspace white's
+    Uses the colourspace's XYZ → RGB matrix from colour-science (identical to
+    ``colour.XYZ_to_RGB(..., illuminant=None)``), without chromatic adaptation: XYZ is
+    taken as absolute (an equal-RGB pixel has the colourspace white's
     chromaticity, D65 for sRGB).  Units follow the input (cd m⁻² in, cd m⁻² out, with
     ``Y = 0.2126 R + 0.7152 G + 0.0722 B`` for sRGB).  float32 in → float32 out.
     """
@@ -160,7 +162,11 @@ def XYZ_to_linear_rgb(XYZ, colourspace: str = "sRGB"):
 
 
 def linear_rgb_to_XYZ(rgb, colourspace: str = "sRGB"):
-    """Linear RGB in ``colourspace`` → CIE XYZ (inverse of :func:`XYZ_to_linear_rgb`)."""
+    """Linear RGB in ``colourspace`` → CIE XYZ, the exact inverse of :func:`XYZ_to_linear_rgb`.
+
+    Differs from colour-science's own RGB → XYZ matrix by < 1e-4 for sRGB (whose published
+    matrices are rounded to 4 decimals).
+    """
     a = as_float_array(rgb, "rgb")
     _, M = _matrices(colourspace)
     return a @ M.T.astype(a.dtype, copy=False)

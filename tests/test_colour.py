@@ -93,9 +93,30 @@ def test_linear_rgb_round_trip_and_white():
     # decimals: R = G = B = 1 to 2e-4)
     white = ac.xyY_to_XYZ([0.3127, 0.3290, 1.0])
     np.testing.assert_allclose(ac.XYZ_to_linear_rgb(white), [1.0, 1.0, 1.0], atol=2e-4)
-    np.testing.assert_allclose(ac.XYZ_to_linear_rgb([0.9505, 1.0, 1.089]), [1.0, 1.0, 1.0], rtol=1e-12)
+    # the published sRGB XYZ→RGB matrix (as carried by colour-science) maps the D65 white
+    # [0.9505, 1, 1.089] to 1 within its 4-decimal rounding
+    np.testing.assert_allclose(ac.XYZ_to_linear_rgb([0.9505, 1.0, 1.089]), [1.0, 1.0, 1.0], atol=1e-4)
+    # XYZ → RGB is exactly colour-science's conversion (no chromatic adaptation)
+    for cs in ("sRGB", "ITU-R BT.2020", "ACEScg"):
+        np.testing.assert_allclose(
+            ac.XYZ_to_linear_rgb(XYZ, cs),
+            colour.XYZ_to_RGB(XYZ, cs, illuminant=None, apply_cctf_encoding=False),
+            rtol=1e-12,
+            atol=1e-15,
+        )
     Y = ac.linear_rgb_to_XYZ(np.eye(3))[:, 1]
     np.testing.assert_allclose(Y, [0.2126, 0.7152, 0.0722], atol=1e-4)
+
+
+def test_XYZ_to_linear_rgb_matches_colour_science():
+    # colour.XYZ_to_RGB without chromatic adaptation or transfer function
+    XYZ = np.random.default_rng(4).random((20, 3))
+    for cs in ("sRGB", "ACEScg", "ITU-R BT.2020", "Display P3"):
+        ref = colour.XYZ_to_RGB(XYZ, cs, illuminant=None, apply_cctf_encoding=False)
+        np.testing.assert_allclose(ac.XYZ_to_linear_rgb(XYZ, cs), ref, rtol=1e-12, atol=1e-15)
+        # and the reverse agrees with colour.RGB_to_XYZ to the precision of its matrices
+        ref_back = colour.RGB_to_XYZ(ref, cs, illuminant=None, apply_cctf_decoding=False)
+        np.testing.assert_allclose(ac.linear_rgb_to_XYZ(ref, cs), ref_back, rtol=0, atol=1e-4)
 
 
 def test_linear_rgb_float32_preserved():

@@ -189,6 +189,16 @@ def test_large_batch_is_chunked_consistently():
         assert out[i] == ac.optical_length(p, 500.0, mu[i], **KW)
 
 
+def test_chunking_with_many_breakpoints_is_consistent():
+    # profiles with many breakpoints (US 1976: ~90) are processed in small ray chunks to
+    # bound memory (~190 rays per chunk); values must not depend on the chunk boundaries
+    p = PROFILES["us1976"]
+    mu = np.linspace(-1, 1, 401)
+    out = ac.optical_length(p, 100.0, mu, **KW)
+    for i in (0, 185, 186, 187, 372, 373, 400):
+        assert out[i] == ac.optical_length(p, 100.0, mu[i], **KW)
+
+
 def test_float32_input():
     p = ac.ExponentialProfile(8000.0)
     mu64 = np.linspace(-0.2, 1.0, 13)

@@ -206,7 +206,7 @@ def test_reference_rtol_reaches_1e6_on_earth_preset():
 
 def test_registry_and_default():
     assert set(SINGLE_SCATTERING_METHODS) == {
-        "keller_bohn", "midpoint", "gauss_legendre", "graded", "reference"}
+        "keller_bohn", "midpoint", "gauss_legendre", "graded", "table", "reference"}
     assert DEFAULT_SINGLE_SCATTERING_METHOD in SINGLE_SCATTERING_METHODS
 
 
@@ -432,3 +432,97 @@ def test_very_small_and_very_large_planets(R):
     atm = _exp_atmosphere(R=R, top=R + 6e4)
     ref = _convergence(atm, _STIFF_DIRS, _sun(20))
     assert np.all(ref[:2] > 0)
+
+
+# ----------------------------------------------------------------------------------------
+# internal optical length against the foundation's independent implementation
+# ----------------------------------------------------------------------------------------
+@pytest.mark.parametrize("profile", [ac.ExponentialProfile(1200.0), ac.ExponentialProfile(8000.0),
+                                     ac.TentProfile(25e3, 15e3)])
+def test_internal_optical_length_matches_foundation(profile):
+    from atmoscatter.sky import _quadrature as qd
+
+    R, top = 6.36e6, 6.42e6
+    atm = ac.Atmosphere(R, top, (550.0,), (ac.Constituent("x", 1e-5, 0.0, profile,
+                                                          ac.RayleighPhase()),))
+    A = qd.prepare_atmosphere(atm)
+    alt = np.array([0.0, 0.0, 5e3, 12e3, 30e3, 30e3, 59e3])
+    mu = np.array([1.0, 0.0, 0.3, -0.05, -0.08, 0.01, -0.1])  # none hits the ground
+    r = R + alt
+    p2 = r * r * (1 - mu) * (1 + mu)
+    got = qd.optical_length_to_top(A, 0, p2, r * mu, 8, 2)
+    exp = ac.optical_length(profile, alt, mu, planet_radius=R, top_radius=top)
+    np.testing.assert_allclose(got, exp, rtol=1e-8)
+
+
+# ----------------------------------------------------------------------------------------
+# table path and the default's automatic choice
+# ----------------------------------------------------------------------------------------
+def _grid(nz, na, zmax=89.9, zmin=0.0):
+    z = np.linspace(zmin, zmax, nz)
+    a = np.linspace(0, 360, na, endpoint=False)
+    return np.array([_dir(zz, aa) for zz in z for aa in a])
+
+
+@pytest.mark.parametrize("elev, alt", [(30.0, 0.0), (1.0, 0.0), (8.0, 12e3)])
+def test_table_within_1e3_of_graded(elev, alt):
+    atm = ac.earth_atmosphere()
+    v = _grid(24, 10, zmax=179.0 if alt else 89.9)
+    ref = single_scattering(atm, v, _sun(elev, 100.0), altitude=alt, method="graded", samples=8)
+    got = single_scattering(atm, v, _sun(elev, 100.0), altitude=alt, method="table")
+    assert _max_rel(got, ref) < 1e-3
+
+
+def test_table_rejects_space_observer():
+    with pytest.raises(ValueError, match="table"):
+        single_scattering(ac.earth_atmosphere(), _dir(120, 0), _sun(20), altitude=1e6,
+                          method="table")
+
+
+def test_default_switches_to_table_only_when_safe():
+    atm = ac.earth_atmosphere()
+    rng = np.random.default_rng(1)
+    v = rng.normal(size=(5000, 3))
+    v[:, 2] = np.abs(v[:, 2])
+    v /= np.linalg.norm(v, axis=1)[:, None]
+    s = _sun(20.0)
+    auto = single_scattering(atm, v, s)
+    np.testing.assert_array_equal(auto, single_scattering(atm, v, s, method="table"))
+    sub = rng.choice(len(v), 200, replace=False)
+    ref = single_scattering(atm, v[sub], s, method="graded", samples=8)
+    assert _max_rel(auto[sub], ref) < 1e-3
+    # sun below the horizon: shadows on the view paths, the table is not used
+    tw = _sun(-3.0)
+    few = v[:4096]
+    np.testing.assert_array_equal(single_scattering(atm, few, tw),
+                                  single_scattering(atm, few, tw, method="graded"))
+
+
+# ----------------------------------------------------------------------------------------
+# the error-against-run-time tool (smoke test; the full study is benchmarks/convergence.py)
+# ----------------------------------------------------------------------------------------
+def test_convergence_study_smoke(tmp_path):
+    from atmoscatter.convergence import (
+        CANONICAL_SCENES,
+        canonical_scene,
+        convergence_study,
+        samples_to_reach,
+        write_report,
+    )
+
+    for name in CANONICAL_SCENES:
+        atm, v, s, alt = canonical_scene(name, n_zenith=3, n_azimuth=2)
+        assert v.shape[-1] == 3 and np.allclose(np.linalg.norm(v, axis=-1), 1)
+    records, refs = convergence_study(
+        ["clear_noon"], {"keller_bohn": (4, 16), "midpoint": (4, 16), "graded": (3,)},
+        n_zenith=3, n_azimuth=2, reference_rtol=1e-6)
+    by = {(r.method, r.samples): r for r in records}
+    assert by["keller_bohn", 16].max_rel_error < by["keller_bohn", 4].max_rel_error
+    assert by["graded", 3].max_rel_error < 1e-3
+    assert all(r.rms_rel_error <= r.max_rel_error for r in records)
+    assert samples_to_reach(records, "clear_noon", "graded", 1.0) == 3.0
+    assert samples_to_reach(records, "clear_noon", "midpoint", 1e-12) == float("inf")
+    paths = write_report(records, refs, tmp_path)
+    for p in paths.values():
+        assert p.exists() and p.stat().st_size > 0
+    assert len(paths["csv"].read_text().strip().splitlines()) == len(records) + 1

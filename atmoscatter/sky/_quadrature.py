@@ -262,6 +262,27 @@ def local_scale(H: float, sigma: np.ndarray, p2: np.ndarray) -> np.ndarray:
     return H / (np.abs(sigma) / r + np.sqrt(2.0 * H / r))
 
 
+def compact_bounds(bounds: np.ndarray, rel: float = 1e-12) -> np.ndarray:
+    """Drop repeated boundaries of sorted ``bounds`` (..., nb) as far as the batch allows.
+
+    Boundaries equal to their predecessor (zero-length panels) are moved to the end
+    (as copies of the last boundary) and the array is cut to the largest number of
+    distinct boundaries in the batch, so no work is spent on empty panels.
+    """
+    if bounds.shape[-1] <= 2:
+        return bounds
+    last = bounds[..., -1:]
+    scale = np.maximum(np.abs(last), 1.0) * rel
+    dup = np.zeros(bounds.shape, dtype=bool)
+    dup[..., 1:] = np.diff(bounds, axis=-1) <= scale
+    key = np.where(dup, np.inf, bounds)
+    key = np.sort(key, axis=-1)
+    n = int(np.max(np.sum(~dup, axis=-1)))
+    n = max(n, 2)
+    key = key[..., :n]
+    return np.where(np.isfinite(key), key, last)
+
+
 def panel_rule(bounds: np.ndarray, q: int):
     """Composite GL nodes and weights from sorted panel boundaries ``(..., nb)``.
 
@@ -310,7 +331,7 @@ def optical_length_to_top(
     bounds = np.concatenate(cuts, axis=-1)
     bounds = np.sort(np.clip(bounds, lo[..., None], hi[..., None]), axis=-1)
     bounds = np.concatenate([lo[..., None], bounds, hi[..., None]], axis=-1)
-    nodes, weights, _ = panel_rule(bounds, q)
+    nodes, weights, _ = panel_rule(compact_bounds(bounds), q)
     weights = np.where((sig[..., None] < 0) & (nodes < -sig[..., None]), 2.0 * weights, weights)
     h = np.sqrt(p2[..., None] + nodes * nodes) - R
     return np.sum(weights * atm.density(g, h), axis=-1)

@@ -39,7 +39,9 @@ References
 
 from __future__ import annotations
 
+import os
 import warnings
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
@@ -51,6 +53,7 @@ __all__ = [
     "SINGLE_SCATTERING_METHODS",
     "DEFAULT_SINGLE_SCATTERING_METHOD",
     "DEFAULT_SINGLE_SCATTERING_SAMPLES",
+    "TABLE_THRESHOLD",
     "ConvergenceWarning",
 ]
 
@@ -60,13 +63,20 @@ class ConvergenceWarning(UserWarning):
 
 
 DEFAULT_SINGLE_SCATTERING_METHOD: str = "graded"
-"""Default method of :func:`single_scattering` (see ``docs/convergence.md``)."""
+"""Default method of :func:`single_scattering` (see ``docs/convergence.md``).  With
+``method=None`` large batches (≥ :data:`TABLE_THRESHOLD` directions) seen by an observer
+inside the atmosphere, with the sun above the observer's ground horizon, use ``"table"``
+instead (no planet shadow can then fall on a view path; measured error in the docs)."""
+
+TABLE_THRESHOLD: int = 4096
+"""Number of directions from which ``method=None`` may switch to the ``"table"`` path."""
 
 DEFAULT_SINGLE_SCATTERING_SAMPLES: dict[str, int] = {
     "keller_bohn": 32,
     "midpoint": 32,
     "gauss_legendre": 32,
-    "graded": 5,
+    "graded": 4,
+    "table": 64,
 }
 """Default ``samples`` per method.  For ``"graded"`` it is the Gauss–Legendre order per
 panel; for the others the number of view-path (and optical-depth) samples."""
@@ -82,6 +92,8 @@ _REFERENCE_LEVELS: tuple[tuple[int, int], ...] = (
     (4, 16),
     (6, 20),
 )
+
+_N_THREADS = max(1, min(4, os.cpu_count() or 1))
 
 # budget of nested (view × sun) quadrature nodes per batch: bounds peak memory
 _NODE_BUDGET = 3_000_000
@@ -237,7 +249,7 @@ def _graded_view_bounds(batch: _Batch, m: int) -> np.ndarray:
     bounds = np.concatenate(cuts, axis=-1)
     bounds = np.where(np.isfinite(bounds), bounds, sa[:, None])
     bounds = np.sort(np.clip(bounds, sa[:, None], sb[:, None]), axis=-1)
-    return np.concatenate([sa[:, None], bounds, sb[:, None]], axis=-1)
+    return qd.compact_bounds(np.concatenate([sa[:, None], bounds, sb[:, None]], axis=-1))
 
 
 def _graded(batch: _Batch, samples: int, panels_per_octave: int = 1) -> np.ndarray:
@@ -268,6 +280,171 @@ def _graded_cost(samples: int, panels_per_octave: int = 1) -> int:
     return 2 * per_path * per_path
 
 
+# ----------------------------------------------------------------------------------------
+# tabulate-and-interpolate path (horizontally uniform atmosphere, observer inside it)
+# ----------------------------------------------------------------------------------------
+def _cheb_nodes01(n: int) -> np.ndarray:
+    """Chebyshev points of the first kind on [0, 1] (increasing)."""
+    k = np.arange(n)
+    return np.sort(0.5 * (1.0 - np.cos((2 * k + 1) * np.pi / (2 * n))))
+
+
+def _bary_weights_cheb1(n: int) -> np.ndarray:
+    k = np.arange(n)
+    w = (-1.0) ** k * np.sin((2 * k + 1) * np.pi / (2 * n))
+    # nodes were sorted increasing = reversed order of k
+    return w[::-1]
+
+
+def _bary_matrix(nodes: np.ndarray, weights: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """Matrix ``M`` with ``M @ f(nodes) = p(x)``, ``p`` the polynomial interpolant."""
+    diff = x[:, None] - nodes[None, :]
+    exact = diff == 0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        c = weights / diff
+        m = c / np.sum(c, axis=1, keepdims=True)
+    rows = np.any(exact, axis=1)
+    m[rows] = exact[rows].astype(float)
+    return m
+
+
+_TWO_OVER_PI = 2.0 / np.pi
+
+
+class _SkyTable:
+    """``J_g(μ, φ)`` of an observer inside a horizontally uniform atmosphere.
+
+    The phase-free integrals ``J_g`` depend only on the view zenith cosine ``μ`` and the
+    azimuth ``φ`` relative to the sun, and are even in ``φ`` (the sky is symmetric about
+    the solar vertical).  They are computed with the graded rule at Chebyshev nodes in
+    ``x = (2/π) asin(sqrt((μ − μ_h)/(1 − μ_h)))`` (above the horizon ``μ_h`` of the
+    ground; ``x`` is linear in the distance from the horizon's square root *and* in the
+    angle from the zenith, so both the near-horizon behaviour ``J ≈ J₀ − c|μ − μ_h|`` and
+    the pole of the (μ, φ) coordinates are smooth in ``x``), the mirrored variable for
+    rays hitting the ground, and at Chebyshev–Lobatto nodes in ``cos φ`` (a cosine series
+    in ``φ``).  The interpolating polynomials are resampled on a fine uniform grid that
+    queries read bilinearly.
+    """
+
+    def __init__(self, atm, r0, s, n_mu, n_phi, q, fine=(1025, 257)):
+        R = atm.planet_radius
+        self.atm, self.r0 = atm, r0
+        # only profile groups that scatter contribute (absorbers enter through J of others)
+        self.groups = sorted({g for g, _, _ in atm.scatterers})
+        self.mu_h = -np.sqrt(max(0.0, 1.0 - (R / r0) ** 2)) if r0 > R else 0.0
+        sh = np.hypot(s[0], s[1])
+        self.sun_az = np.arctan2(s[0], s[1]) if sh > 0 else 0.0
+        self.has_ground = r0 > R * (1.0 + 1e-12)
+        cphi = np.cos(np.pi * np.arange(n_phi) / (n_phi - 1))[::-1]  # Lobatto, increasing
+        wphi = (-1.0) ** np.arange(n_phi) * 1.0
+        wphi[[0, -1]] *= 0.5
+        nu_f, nc_f = fine
+        self.nu_f, self.nc_f = nu_f, nc_f
+        uf = np.linspace(0.0, 1.0, nu_f)
+        cf = np.linspace(-1.0, 1.0, nc_f)
+        mphi = _bary_matrix(cphi, wphi, cf)
+        un = _cheb_nodes01(n_mu)
+        mu_nodes = _bary_matrix(un, _bary_weights_cheb1(n_mu), uf)
+        self.fine_sky = self._build(
+            self.mu_h + (1.0 - self.mu_h) * np.sin(0.5 * np.pi * un) ** 2, cphi, s, q, mu_nodes, mphi
+        )
+        if self.has_ground:
+            ng = max(8, n_mu // 2)
+            ug = _cheb_nodes01(ng)
+            mg = _bary_matrix(ug, _bary_weights_cheb1(ng), uf)
+            self.fine_ground = self._build(
+                self.mu_h - (1.0 + self.mu_h) * np.sin(0.5 * np.pi * ug) ** 2, cphi, s, q, mg, mphi
+            )
+
+    def _build(self, mus, cphi, s, q, mmu, mphi):
+        phi = np.arccos(np.clip(cphi, -1.0, 1.0))
+        mm, pp = np.meshgrid(mus, phi, indexing="ij")
+        sin_t = np.sqrt(np.maximum(1.0 - mm * mm, 0.0))
+        az = self.sun_az + pp
+        v = np.stack([sin_t * np.sin(az), sin_t * np.cos(az), mm], axis=-1).reshape(-1, 3)
+        J = _evaluate_J(self.atm, self.r0, v, s, lambda b: _graded(b, q), _graded_cost(q))
+        J = J[self.groups]
+        G, nwl = J.shape[0], J.shape[-1]
+        J = J.reshape(G, len(mus), len(cphi), nwl)
+        # fine[g, i, j, w] = Σ_a Σ_b mmu[i, a] J[g, a, b, w] mphi[j, b]
+        fine = np.einsum("ia,gabw,jb->ijgw", mmu, J, mphi, optimize=True)
+        return np.ascontiguousarray(np.maximum(fine, 0.0).reshape(len(mmu), len(mphi), G * nwl))
+
+    def _lookup(self, fine, u, c):
+        """Bilinear interpolation; ``fine`` is (nu_f, nc_f, K) with all channels last."""
+        x = u * (self.nu_f - 1)
+        y = (c + 1.0) * 0.5 * (self.nc_f - 1)
+        i = np.clip(x.astype(np.intp), 0, self.nu_f - 2)
+        j = np.clip(y.astype(np.intp), 0, self.nc_f - 2)
+        fx = (x - i)[:, None]
+        fy = (y - j)[:, None]
+        flat = fine.reshape(-1, fine.shape[-1])
+        k = i * self.nc_f + j
+        a = np.take(flat, k, axis=0)
+        a += (np.take(flat, k + self.nc_f, axis=0) - a) * fx
+        b = np.take(flat, k + 1, axis=0)
+        b += (np.take(flat, k + self.nc_f + 1, axis=0) - b) * fx
+        a += (b - a) * fy
+        return a
+
+    def J(self, v: np.ndarray) -> np.ndarray:
+        """Interpolated ``J_g`` (G, N, n_wl) for unit view directions ``v`` (N, 3)."""
+        mu = np.clip(v[:, 2], -1.0, 1.0)
+        h = np.hypot(v[:, 0], v[:, 1])
+        ca, sa = np.cos(self.sun_az), np.sin(self.sun_az)
+        c = np.where(h > 0, (v[:, 0] * sa + v[:, 1] * ca) / np.where(h > 0, h, 1.0), 1.0)
+        c = np.clip(c, -1.0, 1.0)
+        G, nwl = len(self.groups), self.atm.n_wavelengths
+        out = np.zeros((v.shape[0], G * nwl))
+        sky = mu >= self.mu_h
+        u = _TWO_OVER_PI * np.arcsin(np.sqrt(np.clip((mu - self.mu_h) / (1.0 - self.mu_h), 0.0, 1.0)))
+        if self.has_ground:
+            idx = np.nonzero(sky)[0]
+            out[idx] = self._lookup(self.fine_sky, u[idx], c[idx])
+            idx = np.nonzero(~sky)[0]
+            ug = _TWO_OVER_PI * np.arcsin(
+                np.sqrt(np.clip((self.mu_h - mu[idx]) / (1.0 + self.mu_h), 0.0, 1.0))
+            )
+            out[idx] = self._lookup(self.fine_ground, ug, c[idx])
+        else:
+            out = np.where(sky[:, None], self._lookup(self.fine_sky, u, c), 0.0)
+        return np.moveaxis(out.reshape(-1, G, nwl), 1, 0)
+
+
+#: (Chebyshev nodes in u, Lobatto nodes in cos φ) of the table per ``samples`` level
+def _table_size(samples: int) -> tuple[int, int]:
+    n = int(samples)
+    return n, 17
+
+
+def _table_radiance(atm, r0, v, s, samples, q=4, chunk=1 << 15):
+    """Radiance through :class:`_SkyTable`, in chunks spread over a small thread pool
+    (NumPy releases the GIL in the gathers and arithmetic)."""
+    n_mu, n_phi = _table_size(samples)
+    table = _SkyTable(atm, r0, s, n_mu, n_phi, q)
+    out = np.empty((v.shape[0], atm.n_wavelengths))
+    sub = atm.scatterers
+
+    def work(i):
+        vv = v[i : i + chunk]
+        J = table.J(vv)
+        nu = np.clip(vv @ s, -1.0, 1.0)
+        acc = np.zeros((vv.shape[0], atm.n_wavelengths))
+        for g, beta, phase in sub:
+            k = table.groups.index(g)
+            acc += J[k] * (np.asarray(phase(nu), dtype=float)[:, None] * beta)
+        out[i : i + chunk] = acc
+
+    starts = range(0, v.shape[0], chunk)
+    if v.shape[0] > 2 * chunk:
+        with ThreadPoolExecutor(max_workers=_N_THREADS) as pool:
+            list(pool.map(work, starts))
+    else:
+        for i in starts:
+            work(i)
+    return out
+
+
 SINGLE_SCATTERING_METHODS: dict[str, str] = {
     "keller_bohn": (
         "Seed 002 non-equidistant midpoint rule as published: view-path cells "
@@ -280,6 +457,11 @@ SINGLE_SCATTERING_METHODS: dict[str, str] = {
         "away from the ray's lowest point (first panel = local density scale), split at the "
         "planet's shadow and at profile breakpoints; cumulative view optical depth from the "
         "same nodes by spectral integration; sun optical depth by the same graded rule."
+    ),
+    "table": (
+        "Observer inside the atmosphere only: 'graded' (order 4) at Chebyshev nodes in "
+        "sqrt(mu - mu_horizon) × Lobatto nodes in cos(relative azimuth), interpolated; the "
+        "exact phase functions are applied per direction.  samples = nodes in mu."
     ),
     "reference": (
         "'graded' refined level by level (more panels, higher order) until successive levels "
@@ -449,7 +631,8 @@ def single_scattering(
     default is within 1e-3 (measured max relative error; see ``docs/convergence.md``);
     ``"reference"`` converges to ``rtol``.
     """
-    if method is None:
+    auto = method is None
+    if auto:
         method = DEFAULT_SINGLE_SCATTERING_METHOD
     check_option(method, "method", SINGLE_SCATTERING_METHODS)
     atm, v, finite, s, alt, out_dtype = _prepare_inputs(
@@ -460,6 +643,10 @@ def single_scattering(
     fin = finite.reshape(-1)
     vf = np.where(fin[:, None], vf, np.array([0.0, 0.0, 1.0]))
     r0 = atm.planet_radius + alt
+    if auto and samples is None and vf.shape[0] >= TABLE_THRESHOLD and r0 <= atm.top_radius:
+        dip = np.sqrt(max(0.0, 1.0 - (atm.planet_radius / r0) ** 2))
+        if s[2] >= dip:
+            method = "table"
     if method == "reference":
         tol = 1e-6 if rtol is None else float(check_range(rtol, "rtol", 1e-12, 0.1))
         out = _reference(atm, r0, vf, s, tol)
@@ -468,7 +655,14 @@ def single_scattering(
             raise ValueError(f"rtol is only used by method='reference', got rtol={rtol!r}")
         n = DEFAULT_SINGLE_SCATTERING_SAMPLES[method] if samples is None else samples
         n = int(check_range(n, "samples", 1, 4096))
-        if method == "graded":
+        if method == "table":
+            if r0 > atm.top_radius:
+                raise ValueError(
+                    "method='table' needs an observer inside the atmosphere "
+                    f"(altitude <= {atm.top_radius - atm.planet_radius} m), got altitude={alt}"
+                )
+            out = _table_radiance(atm, r0, vf, s, n)
+        elif method == "graded":
             J = _evaluate_J(atm, r0, vf, s, lambda b: _graded(b, n), _graded_cost(n), batch_size)
         else:
             m = n if optical_depth_samples is None else optical_depth_samples
@@ -477,6 +671,7 @@ def single_scattering(
             J = _evaluate_J(
                 atm, r0, vf, s, lambda b: kern(b, n, m), n * m * 2 + n, batch_size
             )
-        out = _radiance_from_J(atm, J, vf, s)
+        if method != "table":
+            out = _radiance_from_J(atm, J, vf, s)
     out = np.where(fin[:, None], np.maximum(out, 0.0), np.nan)
     return out.reshape(lead + (atm.n_wavelengths,)).astype(out_dtype)

@@ -1,0 +1,62 @@
+"""Speed of numerical single and multiple scattering (issue 5; pytest-benchmark).
+
+Run: ``python -m pytest benchmarks/bench_scattering.py`` (quick check without timing:
+``--benchmark-disable``).  Target of issue 5: 10⁶ ground-observer directions at ≤ 1e-3
+maximum relative error in ≤ 1.5 s on a 2-core machine — the default method switches to
+the symmetric table path for such batches (``docs/numerical_scattering.md``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import atmoscatter as ac
+
+_RNG = np.random.default_rng(0)
+_SUN = np.array([0.0, np.cos(np.radians(30.0)), np.sin(np.radians(30.0))])
+
+
+def _upper_hemisphere(n):
+    v = _RNG.normal(size=(n, 3))
+    v[:, 2] = np.abs(v[:, 2])
+    return v / np.linalg.norm(v, axis=1)[:, None]
+
+
+@pytest.fixture(scope="module")
+def earth():
+    return ac.earth_atmosphere()
+
+
+@pytest.mark.parametrize("n", [10_000, 100_000, 1_000_000], ids=["1e4", "1e5", "1e6"])
+def test_single_scattering_default_ground(benchmark, earth, n):
+    """Default method (table path for these batch sizes), clear sky, sun 30° high."""
+    v = _upper_hemisphere(n)
+    out = benchmark(ac.single_scattering, earth, v, _SUN)
+    assert out.shape == (n, 3)
+    assert np.all(np.isfinite(out)) and np.all(out > 0)
+
+
+@pytest.mark.parametrize("method, samples", [("graded", 4), ("keller_bohn", 16),
+                                             ("gauss_legendre", 16)])
+def test_single_scattering_per_direction(benchmark, earth, method, samples):
+    """Direct integration (no table): 2000 directions."""
+    v = _upper_hemisphere(2000)
+    out = benchmark(ac.single_scattering, earth, v, _SUN, method=method, samples=samples)
+    assert np.all(np.isfinite(out))
+
+
+def test_single_scattering_twilight_graded(benchmark, earth):
+    """Sun 4° below the horizon: shadows, so the default stays on the graded rule."""
+    v = _upper_hemisphere(2000)
+    sun = np.array([0.0, np.cos(np.radians(-4.0)), np.sin(np.radians(-4.0))])
+    out = benchmark(ac.single_scattering, earth, v, sun)
+    assert np.all(np.isfinite(out)) and np.all(out >= 0)
+
+
+def test_multiple_scattering_gather(benchmark, earth):
+    """Orders 1–6 for 2000 directions once the field is cached (first call builds it)."""
+    v = _upper_hemisphere(2000)
+    ac.multiple_scattering(earth, v[:1], _SUN, orders=6)  # build and cache the field
+    out = benchmark(ac.multiple_scattering, earth, v, _SUN, orders=6)
+    assert np.all(np.isfinite(out)) and np.all(out > 0)

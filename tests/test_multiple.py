@@ -1,0 +1,99 @@
+"""Tests for atmoscatter.sky.multiple (successive orders of scattering, seed 004).
+
+The accuracy against an independent Monte Carlo tracer is in test_montecarlo.py; here:
+interface, limits and invariants that must hold exactly or by construction.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import atmoscatter as ac
+from atmoscatter.sky.multiple import MultipleScatteringGrid, multiple_scattering
+from atmoscatter.sky.single import single_scattering
+
+
+def _atm(scale=1.0, wl=440.0):
+    # same atmosphere as the thin Monte Carlo case (shares the cached field)
+    return ac.Atmosphere(6.36e6, 6.42e6, (wl,), (
+        ac.Constituent("air", 3.31e-5 * scale, 0.0, ac.ExponentialProfile(8000.0), ac.RayleighPhase()),
+        ac.Constituent("haze", 4.0e-6 * scale, 4.4e-7 * scale, ac.ExponentialProfile(1200.0),
+                       ac.HenyeyGreensteinPhase(0.8)),
+    ))
+
+
+def _dir(z, a):
+    z, a = np.radians(z), np.radians(a)
+    return np.array([np.sin(z) * np.sin(a), np.sin(z) * np.cos(a), np.cos(z)])
+
+
+_V = np.array([_dir(z, a) for z, a in [(0, 0), (45, 180), (80, 30), (89.5, 180), (120, 0)]])
+_S = _dir(60, 180)
+
+
+def test_orders_1_equals_single_scattering():
+    atm = ac.earth_atmosphere()
+    np.testing.assert_array_equal(multiple_scattering(atm, _V, _S, orders=1),
+                                  single_scattering(atm, _V, _S))
+
+
+def test_orders_add_light_and_converge():
+    atm = _atm()
+    out = [multiple_scattering(atm, _V, _S, orders=k, ground_albedo=0.3) for k in (1, 2, 3, 6, 8)]
+    sky = _V[:, 2] >= 0
+    for a, b in zip(out[:-1], out[1:], strict=True):
+        assert np.all(b[sky] >= a[sky])
+    # successive orders shrink geometrically in a thin atmosphere: 6 -> 8 changes < 0.5 %
+    np.testing.assert_allclose(out[4][sky], out[3][sky], rtol=5e-3)
+    # the ground-looking ray from the ground has no path at any order
+    assert np.all(out[4][~sky] == 0)
+
+
+def test_ground_albedo_brightens_the_sky():
+    atm = _atm()
+    dark = multiple_scattering(atm, _V[:4], _S, orders=6, ground_albedo=0.0)
+    bright = multiple_scattering(atm, _V[:4], _S, orders=6, ground_albedo=0.3)
+    assert np.all(bright > dark)
+    # order 1 does not see the ground at all (path radiance only)
+    np.testing.assert_array_equal(
+        multiple_scattering(atm, _V, _S, orders=1, ground_albedo=0.3), single_scattering(atm, _V, _S))
+
+
+def test_observer_in_space_and_shapes():
+    atm = _atm()
+    v = np.stack([_dir(10, 0), _dir(170, 0)]).reshape(2, 1, 3)
+    out = multiple_scattering(atm, v, _S, altitude=1e6, orders=3, ground_albedo=0.3)
+    assert out.shape == (2, 1, 1)
+    assert out[0, 0, 0] == 0 and out[1, 0, 0] > 0
+    bad = _V.copy()
+    bad[1] = np.nan
+    res = multiple_scattering(atm, bad, _S, orders=3, ground_albedo=0.3)
+    assert np.all(np.isnan(res[1])) and np.all(np.isfinite(np.delete(res, 1, axis=0)))
+    f32 = multiple_scattering(atm, _V.astype(np.float32), _S, orders=3, ground_albedo=0.3)
+    assert f32.dtype == np.float32
+
+
+@pytest.mark.parametrize(
+    "kwargs, exc, match",
+    [
+        ({"orders": 0}, ValueError, "orders"),
+        ({"ground_albedo": 1.5}, ValueError, "ground_albedo"),
+        ({"grid": (10, 10)}, TypeError, "grid"),
+    ],
+)
+def test_bad_input(kwargs, exc, match):
+    with pytest.raises(exc, match=match):
+        multiple_scattering(_atm(), _V, _S, **kwargs)
+
+
+def test_no_scatterers_is_zero():
+    atm = ac.Atmosphere(6.36e6, 6.42e6, (550.0,), (
+        ac.Constituent("absorber", 0.0, 1e-5, ac.ExponentialProfile(8000.0), ac.RayleighPhase()),))
+    assert np.all(multiple_scattering(atm, _V, _S, orders=4) == 0)
+
+
+def test_grid_is_a_frozen_dataclass():
+    g = MultipleScatteringGrid()
+    with pytest.raises(AttributeError):
+        g.n_mu = 4  # type: ignore[misc]
