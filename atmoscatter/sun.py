@@ -311,10 +311,10 @@ _NUT_EPS = np.ascontiguousarray(_NUT_COEFFS[:, 2:].T)  # (2, 63): c, d
 def _earth_series(series, jme: np.ndarray) -> np.ndarray:
     """Σ_i JME^i Σ_k A cos(B + C·JME) (Reda & Andreas Eq. 9–10), divided by 1e8."""
     total = np.zeros_like(jme)
-    for power, (a, b, c) in enumerate(series):
+    for a, b, c in reversed(series):  # Horner in JME (x**p is slow for negative x)
         term = np.cos(b[:, None] + c[:, None] * jme[None, :])
         # einsum, not a BLAS gemv: gemv goes multithreaded at this size and stalls under load
-        total += np.einsum("k,kn->n", a, term) * jme**power
+        total = total * jme + np.einsum("k,kn->n", a, term)
     return total * 1e-8
 
 
@@ -343,26 +343,27 @@ def _earth_series_runs(series, jme: np.ndarray, step: float) -> np.ndarray:
             _ROTATIONS.pop(next(iter(_ROTATIONS)))
     rot = _ROTATIONS[key]
     total = np.zeros_like(runs)
-    for power, (a, b, c) in enumerate(series):
+    for power in range(len(series) - 1, -1, -1):  # Horner in JME (x**p is slow for x < 0)
+        a, b, c = series[power]
         e0 = np.exp(1j * (b[:, None] + c[:, None] * start[None, :]))  # (terms, n_runs)
         s_cos = (a[:, None] * e0).T @ rot[power]  # Σ A e^{i·angle}: real part = Σ A cos
         s_sin = ((a * c)[:, None] * e0).T @ rot[power]  # imaginary part = Σ A C sin
-        total += (s_cos.real - eps * s_sin.imag) * runs**power
+        total = total * runs + (s_cos.real - eps * s_sin.imag)
     return total.ravel() * 1e-8
 
 
 def _nutation_args(jce: np.ndarray) -> np.ndarray:
     """Fundamental arguments D, M, M′, F, Ω [deg] (Reda & Andreas Eq. 15–19), shape (5, n)."""
-    return np.stack(
-        [
-            297.85036 + 445267.111480 * jce - 0.0019142 * jce**2 + jce**3 / 189474.0,
-            357.52772 + 35999.050340 * jce - 0.0001603 * jce**2 - jce**3 / 300000.0,
-            134.96298 + 477198.867398 * jce + 0.0086972 * jce**2 + jce**3 / 56250.0,
-            93.27191 + 483202.017538 * jce - 0.0036825 * jce**2 + jce**3 / 327270.0,
-            125.04452 - 1934.136261 * jce + 0.0020708 * jce**2 + jce**3 / 450000.0,
-        ]
-    )
+    return np.stack([_horner(jce, coeffs) for coeffs in _NUT_POLYS])
 
+
+_NUT_POLYS = (
+    (297.85036, 445267.111480, -0.0019142, 1.0 / 189474.0),
+    (357.52772, 35999.050340, -0.0001603, -1.0 / 300000.0),
+    (134.96298, 477198.867398, 0.0086972, 1.0 / 56250.0),
+    (93.27191, 483202.017538, -0.0036825, 1.0 / 327270.0),
+    (125.04452, -1934.136261, 0.0020708, 1.0 / 450000.0),
+)
 
 #: Linear rates of the fundamental arguments [deg per Julian century].
 _NUT_RATES = np.array([445267.111480, 35999.050340, 477198.867398, 483202.017538, -1934.136261])
@@ -463,7 +464,7 @@ def _spa_time_terms(d: np.ndarray, dt_s: np.ndarray, *, run_step=None) -> dict[s
     dec = np.arcsin(sin_dec)
     # hour-angle offset: ν = 280.46061837 + 360.98564736629 d + 0.000387933 T² − T³/38710000
     # (+ Δψ cos ε); 360·d ≡ 360·frac(d), so H = 2π frac(d) + σ − q with the slow part q:
-    gm_slow = 280.46061837 + 0.98564736629 * d + 0.000387933 * jc**2 - jc**3 / 38710000.0
+    gm_slow = 280.46061837 + 0.98564736629 * d + jc * jc * (0.000387933 - jc / 38710000.0)
     q = alpha - dpsi * ce - gm_slow * _DEG
     q = (q + np.pi) % _TWO_PI - np.pi
     # equation of time (Eq. A.1–A.2) [min]
