@@ -33,6 +33,8 @@ from dataclasses import dataclass, field, fields
 
 import numpy as np
 
+from .sun import earth_sun_distance, sun_position
+
 __all__ = [
     "Scene",
     "Plan",
@@ -41,7 +43,6 @@ __all__ = [
     "PROJECTIONS",
     "OUTPUTS",
     "parse_time",
-    "earth_sun_distance",
 ]
 
 #: Output geometries (see :mod:`atmoscatter.directions`).
@@ -238,15 +239,8 @@ class Scene:
                 math.radians(az % 360.0),
                 "given (sun_elevation_deg, sun_azimuth_deg)",
             )
-        try:
-            from . import sun as _sun  # noqa: PLC0415 - lazy: lands from another issue
-        except ImportError as exc:  # pragma: no cover - depends on merge state
-            raise ValueError(
-                "this scene gives a time and place but atmoscatter.sun is not available; "
-                "give sun_elevation_deg and sun_azimuth_deg instead"
-            ) from exc
         t = np.datetime64(self.datetime().replace(tzinfo=None), "ns")
-        pos = _sun.sun_position(t, self.latitude, self.longitude, elevation=0.0)
+        pos = sun_position(t, self.latitude, self.longitude, elevation=0.0)
         zen = float(np.asarray(pos.zenith))
         azi = float(np.asarray(pos.azimuth)) % (2 * math.pi)
         return zen, azi, "sun_position(time, latitude, longitude)"
@@ -407,22 +401,6 @@ def parse_time(value: str) -> _dt.datetime:
     if t.tzinfo is None:
         t = t.replace(tzinfo=_dt.timezone.utc)
     return t.astimezone(_dt.timezone.utc)
-
-
-def earth_sun_distance(time) -> float:
-    """Earth–Sun distance [AU] at ``time`` (ISO 8601 string or datetime).
-
-    Low-precision formula of the Astronomical Almanac (USNO "approximate solar
-    coordinates"): ``R = 1.00014 − 0.01671 cos g − 0.00014 cos 2g`` with the
-    mean anomaly ``g = 357.529° + 0.98560028° n`` and ``n`` the days since
-    J2000.0 (2000-01-01 12:00 TT, taken as UTC here); accurate to about 1e-5 AU
-    for 1950–2050.
-    """
-    t = parse_time(time)
-    j2000 = _dt.datetime(2000, 1, 1, 12, tzinfo=_dt.timezone.utc)
-    n = (t - j2000).total_seconds() / 86400.0
-    g = math.radians((357.529 + 0.98560028 * n) % 360.0)
-    return 1.00014 - 0.01671 * math.cos(g) - 0.00014 * math.cos(2.0 * g)
 
 
 # ----------------------------------------------------------------------------
@@ -656,7 +634,7 @@ def plan(scene: Scene, *, batch_size: int | None = None, atmosphere=None) -> Pla
     adapter = get_model(scene.model)
     notes = []
     zen, azi, source = scene.sun_angles()
-    distance = earth_sun_distance(scene.time) if scene.time else 1.0
+    distance = float(earth_sun_distance(parse_time(scene.time))) if scene.time else 1.0
 
     # what is asked for --------------------------------------------------------
     if scene.output == "luminance":

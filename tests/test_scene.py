@@ -9,7 +9,8 @@ import pytest
 
 import atmoscatter as ac
 from atmoscatter.models import ModelAdapter, register_model, unregister_model
-from atmoscatter.scene import Plan, Scene, earth_sun_distance, load_scene, parse_time, plan
+from atmoscatter.scene import Plan, Scene, load_scene, parse_time, plan
+from atmoscatter.sun import earth_sun_distance
 
 
 def _toy_prepare(scene, plan):
@@ -165,7 +166,7 @@ class TestTime:
         ("2024-07-05T00:00Z", 1.01673),
     ])
     def test_earth_sun_distance(self, date, expected):
-        assert earth_sun_distance(date) == pytest.approx(expected, abs=3e-5)
+        assert float(earth_sun_distance(parse_time(date))) == pytest.approx(expected, abs=3e-5)
 
 
 class TestPlan:
