@@ -7,8 +7,8 @@ Public objects
   normalisation, error maps.  Returns a :class:`Comparison`.
 - :class:`Comparison`: the result; :meth:`Comparison.to_dict` (JSON-ready summary) and
   :meth:`Comparison.write` (``summary.json``, ``error_map.png``, ``delta_e_map.png``).
-- :func:`read_sky_map`: read another renderer's EXR (lat-long, cube map or fisheye) into
-  CIE XYZ in our layout, applying the rotate/flip/colourspace options.
+- :func:`read_sky_map`: read another renderer's EXR (lat-long, cube map, fisheye or a
+  direction set) into CIE XYZ in our layout, applying the rotate/flip/colourspace options.
 - :func:`compare_exr`: read an EXR, render our reference for a scene at the same directions
   and compare (the Python equivalent of ``atmoscatter compare``).
 - :func:`add_compare_parser`, :func:`run_compare`: the ``compare`` subcommand.
@@ -37,8 +37,9 @@ Another renderer's map in a different convention is brought into ours with ``fli
 (applied first) and ``rotate_deg``: the pixel the file stores at azimuth *a* is compared
 with our sky at azimuth *a* + ``rotate_deg``.  Lat-long maps are shifted column-wise (linear
 interpolation for fractional shifts); for cube maps, fisheyes and direction sets the pixels'
-directions are transformed and our reference is rendered exactly there.  ``flip="horizontal"`` mirrors
-azimuth (a map whose azimuth runs west-ward), ``flip="vertical"`` swaps top and bottom.
+directions are transformed and our reference is rendered exactly there.
+``flip="horizontal"`` mirrors azimuth (a map whose azimuth runs west-ward),
+``flip="vertical"`` swaps zenith and nadir (top and bottom rows of a lat-long map).
 RGB files are read as **linear** RGB in ``colourspace`` (any colour-science name, default
 sRGB / Rec. 709 primaries); files that carry ``XYZ.X/Y/Z`` or a single ``Y`` channel are
 used as such.
