@@ -641,6 +641,10 @@ def read_sky_map(path, *, layout: str = "auto", rotate_deg: float = 0.0, flip: s
                          f"(height = 6 × width), got {w}×{h}")
     if lay == "fisheye" and w != h:
         raise ValueError(f"a fisheye image must be square, got {w}×{h}")
+    if lay == "fisheye" and flip in ("vertical", "both"):
+        raise ValueError("flip='vertical' (zenith ↔ nadir) does not apply to a fisheye of the "
+                         "upper hemisphere; an image with north at the bottom is rotate_deg=180 "
+                         "(plus flip='horizontal' if east is still on the left)")
     dirs = solid = valid = None
     if lay == "directions":
         if not all(c in chans for c in ("dir.X", "dir.Y", "dir.Z")):

@@ -504,3 +504,6 @@ def test_rotate_and_flip_cube_maps_and_fisheyes(tmp_path, projection, width, hei
     assert r.delta_e_2000["max"] < 1e-3
     # and without the options they disagree
     assert compare_exr(path, scene(azimuth)).luminance_relative_error["max"] > 0.05
+    if projection == "fisheye":
+        with pytest.raises(ValueError, match="rotate_deg=180"):
+            compare_exr(path, scene(azimuth), flip="vertical")
