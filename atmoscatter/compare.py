@@ -42,7 +42,9 @@ directions are transformed and our reference is rendered exactly there.
 ``flip="vertical"`` swaps zenith and nadir (top and bottom rows of a lat-long map).
 RGB files are read as **linear** RGB in ``colourspace`` (any colour-science name, default
 sRGB / Rec. 709 primaries); files that carry ``XYZ.X/Y/Z`` or a single ``Y`` channel are
-used as such.
+used as such; spectral files (layers ``S0.<λ>nm`` of spectral radiance in
+W m⁻² sr⁻¹ nm⁻¹, the Fichet et al. 2021 convention the renderer writes) are integrated to XYZ
+with the CIE 1931 2° colour-matching functions.  Priority: XYZ, RGB, spectral, Y.
 
 What is compared
 ----------------
@@ -542,6 +544,22 @@ def _read_exr_channels(path):
     return chans, header
 
 
+def _spectral_channels(chans):
+    """(wavelengths [nm], channel names) of spectral layers ``S0.<λ>nm`` (Fichet et al.
+    2021, λ with ',' or '.' as decimal separator), sorted; None if fewer than 2."""
+    found = []
+    for name in chans:
+        if name.startswith("S0.") and name.endswith("nm"):
+            try:
+                found.append((float(name[3:-2].replace(",", ".")), name))
+            except ValueError:
+                continue
+    if len(found) < 2:
+        return None
+    found.sort()
+    return np.array([w for w, _ in found]), [n for _, n in found]
+
+
 def _detect_layout(header, h, w, path, chans=()):
     if all(c in chans for c in ("dir.X", "dir.Y", "dir.Z")):
         return "directions"
@@ -583,8 +601,8 @@ def read_sky_map(path, *, layout: str = "auto", rotate_deg: float = 0.0, flip: s
     Parameters
     ----------
     path : str or path-like
-        OpenEXR file with ``R, G, B`` (linear, in ``colourspace``), ``XYZ.X/Y/Z`` or ``Y``
-        channels.
+        OpenEXR file with ``XYZ.X/Y/Z``, ``R, G, B`` (linear, in ``colourspace``), spectral
+        ``S0.<λ>nm`` (W m⁻² sr⁻¹ nm⁻¹) or ``Y`` channels (in that priority).
     layout : {"auto", "latlong", "cubemap", "fisheye", "directions"}
         ``auto``: ``directions`` if the file has ``dir.X/Y/Z`` channels, else the ``envmap``
         header attribute, else the aspect ratio (2:1 lat-long, 1:6 cube map, square fisheye).
@@ -623,12 +641,20 @@ def read_sky_map(path, *, layout: str = "auto", rotate_deg: float = 0.0, flip: s
         check_option(colourspace, "colourspace", colourspace_names())
         xyz, _ = _to_xyz(rgb, colourspace, "RGB")
         source = f"RGB as linear {colourspace}"
+    elif _spectral_channels(chans):
+        wl, names = _spectral_channels(chans)
+        from .colour import spectral_to_XYZ
+
+        spec = np.stack([chans[n] for n in names], -1).astype(np.float64)
+        xyz = np.asarray(spectral_to_XYZ(spec, wl), dtype=np.float64)
+        source = (f"spectral radiance, {wl.size} bands {wl[0]:g}–{wl[-1]:g} nm "
+                  "(W m-2 sr-1 nm-1, CIE 1931 2° CMFs)")
     elif "Y" in chans:
         xyz = None
         source = "Y channel"
     else:
         raise ValueError(f"{os.fspath(path)!r} has none of the channels R,G,B / XYZ.X,XYZ.Y,"
-                         f"XYZ.Z / Y (found {sorted(chans)})")
+                         f"XYZ.Z / spectral S0.<λ>nm / Y (found {sorted(chans)})")
     lum = xyz[..., 1] if xyz is not None else np.asarray(chans["Y"], dtype=np.float64)
     if lum.ndim != 2:
         raise ValueError(f"{os.fspath(path)!r}: expected a 2-D image, got shape {lum.shape}")

@@ -507,3 +507,19 @@ def test_rotate_and_flip_cube_maps_and_fisheyes(tmp_path, projection, width, hei
     if projection == "fisheye":
         with pytest.raises(ValueError, match="rotate_deg=180"):
             compare_exr(path, scene(azimuth), flip="vertical")
+
+
+def test_spectral_file_is_integrated_to_xyz(tmp_path):
+    # spectral layers S0.<λ>nm (Fichet et al. 2021 naming) → XYZ with the CIE CMFs
+    from atmoscatter.colour import spectral_to_XYZ
+
+    wl = np.arange(380.0, 781.0, 10.0)
+    rng = np.random.default_rng(4)
+    spec = rng.uniform(0.0, 0.01, size=(8, 16, wl.size))
+    chans = {"S0." + f"{w:.6f}".replace(".", ",") + "nm": spec[..., i] for i, w in enumerate(wl)}
+    p = tmp_path / "spectral.exr"
+    _write_exr(p, chans, "latlong")
+    m = read_sky_map(p)
+    assert "spectral" in m.source and "41 bands" in m.source
+    np.testing.assert_allclose(m.xyz, spectral_to_XYZ(spec.astype(np.float32).astype(float), wl),
+                               rtol=1e-12)
