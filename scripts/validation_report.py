@@ -475,7 +475,11 @@ def convergence_section(docs_dir):
                                        else "") + ".", ""]
     if os.path.exists(png):
         lines += ["![error against run time](convergence/convergence.png)", ""]
-    for path in (table, claim):
+    page = os.path.exists(os.path.join(docs_dir, "convergence.md"))
+    if page:  # the full table lives on the convergence page
+        lines += ["The full table (every scene, method and sample count) is on "
+                  "[the convergence page](convergence.md).", ""]
+    for path in ((claim,) if page else (table, claim)):
         if os.path.exists(path):
             with open(path, encoding="utf-8") as fh:
                 text = fh.read().strip()
