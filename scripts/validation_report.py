@@ -131,6 +131,8 @@ def model_section(out_dir, width, n_times):
             sun = ref.plan.sun_direction
             el = float(np.degrees(np.arcsin(sun[2])))
             mask = (d[..., 2] > 0) & (d @ sun < np.cos(np.radians(SUN_EXCLUSION_DEG)))
+            # diffuse horizontal illuminance of the sky dome [lx] (sun disc not drawn)
+            e_ref = float(ac.diffuse_irradiance(ref))
             for m in tested:
                 try:
                     img, dtm = _render(m, t, T, width)
@@ -147,12 +149,15 @@ def model_section(out_dir, width, n_times):
                 rows.append({"model": m, "turbidity": T, "time": _iso(t),
                              "sun_elevation_deg": el, "median": e["median"], "p95": e["p95"],
                              "max": e["max"], "scale": c.scale, "scaled_p95": s["p95"],
-                             "delta_e_median": de["median"], "delta_e_p95": de["p95"]})
+                             "delta_e_median": de["median"], "delta_e_p95": de["p95"],
+                             "illuminance_ref": e_ref,
+                             "illuminance_ratio": float(ac.diffuse_irradiance(img)) / e_ref})
                 maps[(m, T, _iso(t))] = c
     # CSV
     os.makedirs(out_dir, exist_ok=True)
     keys = ["model", "turbidity", "time", "sun_elevation_deg", "median", "p95", "max",
-            "scale", "scaled_p95", "delta_e_median", "delta_e_p95", "error"]
+            "scale", "scaled_p95", "delta_e_median", "delta_e_p95", "illuminance_ref",
+            "illuminance_ratio", "error"]
     with open(os.path.join(out_dir, "models.csv"), "w", newline="", encoding="utf-8") as fh:
         w = csv.DictWriter(fh, fieldnames=keys)
         w.writeheader()
@@ -210,6 +215,7 @@ def model_section(out_dir, width, n_times):
     if not tested:
         lines += ["No clear-sky model other than the reference is available.", ""]
     lines += _findings(rows, tested)
+    lines += _illuminance_table(rows, tested)
     for m in tested:
         lines += [f"### `{m}`", "",
                   "| T | time (UTC) | sun elev. [°] | median | p95 | max | scale | scaled p95 | "
@@ -308,6 +314,40 @@ def _findings(rows, tested):
     hi_el = max(r["sun_elevation_deg"] for r in rows if "p95" in r)
     lo_el = min(r["sun_elevation_deg"] for r in rows if "p95" in r)
     return out + ["", f"Highest sun {hi_el:.0f}°, lowest {lo_el:.0f}°:", "", *summary, ""]
+
+
+def _illuminance_table(rows, tested):
+    """Diffuse horizontal illuminance of each model relative to the reference."""
+    ok = [r for r in rows if "illuminance_ratio" in r]
+    if not ok:
+        return []
+    els = sorted({round(r["sun_elevation_deg"]) for r in ok})
+    out = ["### Diffuse horizontal illuminance (daylighting)", "",
+           "`atmoscatter.diffuse_irradiance` of each map (sky dome only, sun disc not drawn), "
+           "model / reference; the reference value [klx] in the last rows.  Sun elevations "
+           "are rounded; morning and afternoon instants of equal elevation are averaged.", "",
+           "| model | T | " + " | ".join(f"{e}°" for e in els) + " |",
+           "|---|---|" + "---|" * len(els)]
+
+    def cell(rr, key, scale=1.0, fmt="{:.3g}"):
+        v = [r[key] for r in rr]
+        return fmt.format(scale * float(np.mean(v))) if v else ""
+
+    for m in tested:
+        for T in TURBIDITIES:
+            rr = [r for r in ok if r["model"] == m and r["turbidity"] == T]
+            if rr:
+                out.append(f"| `{m}` | {T:g} | " + " | ".join(
+                    cell([r for r in rr if round(r["sun_elevation_deg"]) == e],
+                         "illuminance_ratio") for e in els) + " |")
+    first = tested[0] if tested else None
+    for T in TURBIDITIES:
+        rr = [r for r in ok if r["model"] == first and r["turbidity"] == T]
+        if rr:
+            out.append(f"| reference [klx] | {T:g} | " + " | ".join(
+                cell([r for r in rr if round(r["sun_elevation_deg"]) == e], "illuminance_ref",
+                     1e-3, "{:.1f}") for e in els) + " |")
+    return out + [""]
 
 
 def _plot(rows, tested, out_dir, ref_model):
