@@ -464,9 +464,11 @@ def _grid(nz, na, zmax=89.9, zmin=0.0):
     return np.array([_dir(zz, aa) for zz in z for aa in a])
 
 
-@pytest.mark.parametrize("elev, alt", [(30.0, 0.0), (1.0, 0.0), (8.0, 12e3)])
-def test_table_within_1e3_of_graded(elev, alt):
-    atm = ac.earth_atmosphere()
+@pytest.mark.parametrize("elev, alt, ozone", [(30.0, 0.0, True), (1.0, 0.0, True),
+                                              (8.0, 12e3, False)])
+def test_table_within_1e3_of_graded(elev, alt, ozone):
+    """Where the default uses the table (ground; elevated without breakpoints below)."""
+    atm = ac.earth_atmosphere(ozone=ozone)
     v = _grid(24, 10, zmax=179.0 if alt else 89.9)
     ref = single_scattering(atm, v, _sun(elev, 100.0), altitude=alt, method="graded", samples=8)
     got = single_scattering(atm, v, _sun(elev, 100.0), altitude=alt, method="table")
@@ -479,23 +481,34 @@ def test_table_rejects_space_observer():
                           method="table")
 
 
-def test_default_switches_to_table_only_when_safe():
+def test_default_switches_to_table_only_when_safe(monkeypatch):
+    import atmoscatter.sky.single as single_mod
+
+    monkeypatch.setattr(single_mod, "TABLE_THRESHOLD", 300)
     atm = ac.earth_atmosphere()
     rng = np.random.default_rng(1)
-    v = rng.normal(size=(5000, 3))
+    v = rng.normal(size=(400, 3))
     v[:, 2] = np.abs(v[:, 2])
     v /= np.linalg.norm(v, axis=1)[:, None]
     s = _sun(20.0)
     auto = single_scattering(atm, v, s)
     np.testing.assert_array_equal(auto, single_scattering(atm, v, s, method="table"))
-    sub = rng.choice(len(v), 200, replace=False)
-    ref = single_scattering(atm, v[sub], s, method="graded", samples=8)
-    assert _max_rel(auto[sub], ref) < 1e-3
+    ref = single_scattering(atm, v, s, method="graded", samples=8)
+    assert _max_rel(auto, ref) < 1e-3
+    # below the threshold, or with samples given, the graded rule is used
+    np.testing.assert_array_equal(single_scattering(atm, v[:200], s),
+                                  single_scattering(atm, v[:200], s, method="graded"))
     # sun below the horizon: shadows on the view paths, the table is not used
     tw = _sun(-3.0)
-    few = v[:4096]
-    np.testing.assert_array_equal(single_scattering(atm, few, tw),
-                                  single_scattering(atm, few, tw, method="graded"))
+    np.testing.assert_array_equal(single_scattering(atm, v, tw),
+                                  single_scattering(atm, v, tw, method="graded"))
+    # observer above the ozone layer's lower edge (kinks in the sky): graded
+    np.testing.assert_array_equal(single_scattering(atm, v, s, altitude=12e3),
+                                  single_scattering(atm, v, s, altitude=12e3, method="graded"))
+    # ... but the table is used there without ozone
+    clean = ac.earth_atmosphere(ozone=False)
+    np.testing.assert_array_equal(single_scattering(clean, v, s, altitude=12e3),
+                                  single_scattering(clean, v, s, altitude=12e3, method="table"))
 
 
 # ----------------------------------------------------------------------------------------
