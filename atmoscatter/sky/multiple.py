@@ -29,10 +29,10 @@ radiance).  For rays that end on the ground the ground's own reflected radiance 
 included (so ``orders=1`` equals single scattering for every direction); the ground
 albedo acts through light reflected by the ground and scattered again.
 
-Accuracy: orders ≥ 2 are computed on a coarse angular grid; the Monte Carlo
-comparison in ``tests/test_montecarlo.py`` and ``docs/numerical_scattering.md`` states
-the measured error (a few per cent of the multiple-scattering part, i.e. well below
-1 % of the total radiance in clear skies).
+Accuracy: orders ≥ 2 are computed on a coarse grid; against the Monte Carlo tracer of
+``tests/test_montecarlo.py`` the total radiance agrees within about 1 % (at most ~3 % of
+the multiple-scattering part) in a thin (τ ≈ 0.3) and a thick (τ ≈ 3) atmosphere, with
+and without a bright ground (``docs/numerical_scattering.md``).
 
 References
 ----------
@@ -384,8 +384,8 @@ def multiple_scattering(
         Observer altitude [m] (any: ground, inside, top, space).
     orders : int
         Number of scattering orders, ≥ 1 (1 = :func:`single_scattering`, default method).
-        The default 6 leaves a truncation error below ~0.1 % of the total in clear Earth
-        skies; optically thick atmospheres need more.
+        The default 6 differs from 10 orders by at most 0.15 % (measured, clear Earth sky,
+        sun 30° high); optically thick atmospheres need more.
     ground_albedo : float
         Lambertian ground albedo [-], in [0, 1].
     grid : MultipleScatteringGrid, optional
