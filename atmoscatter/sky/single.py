@@ -40,7 +40,9 @@ References
 from __future__ import annotations
 
 import os
+import threading
 import warnings
+from collections import OrderedDict
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
@@ -328,7 +330,7 @@ class _SkyTable:
     queries read bilinearly.
     """
 
-    def __init__(self, atm, r0, s, n_mu, n_phi, q, fine=(1025, 257)):
+    def __init__(self, atm, r0, s, n_mu, n_phi, q, fine=None):
         R = atm.planet_radius
         self.atm, self.r0 = atm, r0
         # only profile groups that scatter contribute (absorbers enter through J of others)
@@ -337,6 +339,11 @@ class _SkyTable:
         sh = np.hypot(s[0], s[1])
         self.sun_az = np.arctan2(s[0], s[1]) if sh > 0 else 0.0
         self.has_ground = r0 > R * (1.0 + 1e-12)
+        channels = len(self.groups) * atm.n_wavelengths
+        if fine is None:
+            # ~64 MB at most for the resampled table (spectral runs have many channels)
+            fine = (1025, 257) if channels <= 16 else (513, 129)
+        self.dtype = np.float64 if channels <= 16 else np.float32
         cphi = np.cos(np.pi * np.arange(n_phi) / (n_phi - 1))[::-1]  # Lobatto, increasing
         wphi = (-1.0) ** np.arange(n_phi) * 1.0
         wphi[[0, -1]] *= 0.5
@@ -370,7 +377,8 @@ class _SkyTable:
         J = J.reshape(G, len(mus), len(cphi), nwl)
         # fine[g, i, j, w] = Σ_a Σ_b mmu[i, a] J[g, a, b, w] mphi[j, b]
         fine = np.einsum("ia,gabw,jb->ijgw", mmu, J, mphi, optimize=True)
-        return np.ascontiguousarray(np.maximum(fine, 0.0).reshape(len(mmu), len(mphi), G * nwl))
+        fine = np.maximum(fine, 0.0).reshape(len(mmu), len(mphi), G * nwl)
+        return np.ascontiguousarray(fine, dtype=self.dtype)
 
     def _lookup(self, fine, u, c):
         """Bilinear interpolation; ``fine`` is (nu_f, nc_f, K) with all channels last."""
@@ -382,9 +390,9 @@ class _SkyTable:
         fy = (y - j)[:, None]
         flat = fine.reshape(-1, fine.shape[-1])
         k = i * self.nc_f + j
-        a = np.take(flat, k, axis=0)
+        a = np.take(flat, k, axis=0).astype(float)
         a += (np.take(flat, k + self.nc_f, axis=0) - a) * fx
-        b = np.take(flat, k + 1, axis=0)
+        b = np.take(flat, k + 1, axis=0).astype(float)
         b += (np.take(flat, k + self.nc_f + 1, axis=0) - b) * fx
         a += (b - a) * fy
         return a
@@ -419,11 +427,36 @@ def _table_size(samples: int) -> tuple[int, int]:
     return n, 17
 
 
-def _table_radiance(atm, r0, v, s, samples, q=4, chunk=1 << 15):
+_TABLE_CACHE: OrderedDict = OrderedDict()
+_TABLE_CACHE_MAX = 4
+_TABLE_LOCK = threading.Lock()
+
+
+def _cached_table(atmosphere, atm, r0, s, n_mu, n_phi, q):
+    """Tables are reused across calls with the same atmosphere, observer and sun (a renderer
+    evaluating one sky in many batches, possibly from several threads, builds it once)."""
+    try:
+        key = (atmosphere, float(r0), tuple(float(x) for x in s), n_mu, n_phi, q)
+        hash(key)
+    except TypeError:
+        return _SkyTable(atm, r0, s, n_mu, n_phi, q)
+    with _TABLE_LOCK:
+        table = _TABLE_CACHE.get(key)
+        if table is None:
+            table = _SkyTable(atm, r0, s, n_mu, n_phi, q)
+            _TABLE_CACHE[key] = table
+            while len(_TABLE_CACHE) > _TABLE_CACHE_MAX:
+                _TABLE_CACHE.popitem(last=False)
+        else:
+            _TABLE_CACHE.move_to_end(key)
+    return table
+
+
+def _table_radiance(atmosphere, atm, r0, v, s, samples, q=4, chunk=1 << 15):
     """Radiance through :class:`_SkyTable`, in chunks spread over a small thread pool
     (NumPy releases the GIL in the gathers and arithmetic)."""
     n_mu, n_phi = _table_size(samples)
-    table = _SkyTable(atm, r0, s, n_mu, n_phi, q)
+    table = _cached_table(atmosphere, atm, r0, s, n_mu, n_phi, q)
     out = np.empty((v.shape[0], atm.n_wavelengths))
     sub = atm.scatterers
 
@@ -519,7 +552,9 @@ def _evaluate_J(atm, r0, v, s, fn, cost, batch_size=None):
     n = v.shape[0]
     out = np.zeros((len(atm.profiles), n, atm.n_wavelengths))
     if batch_size is None:
-        batch_size = max(8, int(_NODE_BUDGET // max(cost, 1)))
+        # the per-node temporaries carry one value per wavelength
+        scale = max(1.0, atm.n_wavelengths / 3.0)
+        batch_size = max(8, int(_NODE_BUDGET // max(cost * scale, 1)))
     for i in range(0, n, batch_size):
         b = _Batch(atm, r0, v[i : i + batch_size], s)
         active = b.sb > b.sa
@@ -666,7 +701,7 @@ def single_scattering(
                     "method='table' needs an observer inside the atmosphere "
                     f"(altitude <= {atm.top_radius - atm.planet_radius} m), got altitude={alt}"
                 )
-            out = _table_radiance(atm, r0, vf, s, n)
+            out = _table_radiance(atmosphere, atm, r0, vf, s, n)
         elif method == "graded":
             J = _evaluate_J(atm, r0, vf, s, lambda b: _graded(b, n), _graded_cost(n), batch_size)
         else:
