@@ -69,3 +69,11 @@ def test_multiple_scattering_gather(benchmark, earth):
     ac.multiple_scattering(earth, v[:1], _SUN, orders=6)  # build and cache the field
     out = benchmark(ac.multiple_scattering, earth, v, _SUN, orders=6)
     assert np.all(np.isfinite(out)) and np.all(out > 0)
+
+
+def test_multiple_scattering_large_batch(benchmark, earth):
+    """10⁵ directions: the multiple-scattering part is tabulated over (μ, φ)."""
+    v = _upper_hemisphere(100_000)
+    ac.multiple_scattering(earth, v[:1], _SUN, orders=6)  # build and cache the field
+    out = benchmark(ac.multiple_scattering, earth, v, _SUN, orders=6)
+    assert np.all(np.isfinite(out)) and np.all(out > 0)

@@ -49,7 +49,14 @@ import numpy as np
 
 from .._validate import check_range
 from . import _quadrature as qd
-from .single import _Batch, _graded_view_bounds, _prepare_inputs, single_scattering
+from .single import (
+    TABLE_THRESHOLD,
+    _Batch,
+    _graded_view_bounds,
+    _prepare_inputs,
+    _SkyTable,
+    single_scattering,
+)
 
 __all__ = ["multiple_scattering", "MULTIPLE_SCATTERING_GRID", "MultipleScatteringGrid"]
 
@@ -84,6 +91,10 @@ class MultipleScatteringGrid:
 
 MULTIPLE_SCATTERING_GRID = MultipleScatteringGrid()
 """Default grid."""
+
+#: (view-zenith, azimuth) nodes of the table used for the multiple-scattering part of large
+#: batches (≥ TABLE_THRESHOLD directions, observer inside the atmosphere)
+_MS_TABLE_NODES = (129, 33)
 
 _CACHE: dict = {}
 _CACHE_MAX = 4
@@ -427,15 +438,30 @@ def multiple_scattering(
     r0 = atm.planet_radius + alt
     # rotate into the grid's frame is unnecessary: the march works in the local frame and
     # only uses local (h, μ, μ_s, cos φ) of every sample.
-    extra = np.zeros((vf.shape[0], atm.n_wavelengths))
-    for i0 in range(0, vf.shape[0], batch_size):
-        vb = vf[i0 : i0 + batch_size]
-        b = _Batch(atm, r0, vb, s)
-        act = np.nonzero(b.sb > b.sa)[0]
-        if act.size == 0:
-            continue
-        mc = _march(atm, r0, vb[act], s, field.grid.order)
-        extra[i0 + act] = _gather(field, mc, S_sum)
+    def direct(vv):
+        out = np.zeros((vv.shape[0], atm.n_wavelengths))
+        for i0 in range(0, vv.shape[0], batch_size):
+            vb = vv[i0 : i0 + batch_size]
+            b = _Batch(atm, r0, vb, s)
+            act = np.nonzero(b.sb > b.sa)[0]
+            if act.size == 0:
+                continue
+            mc = _march(atm, r0, vb[act], s, field.grid.order)
+            out[i0 + act] = _gather(field, mc, S_sum)
+        return out
+
+    if vf.shape[0] >= TABLE_THRESHOLD and r0 <= atm.top_radius:
+        # the multiple-scattering part is a smooth function of (view zenith, azimuth from
+        # the sun), symmetric about the solar vertical: tabulate it like single scattering
+        table = _SkyTable(
+            atm, r0, s, _MS_TABLE_NODES[0], _MS_TABLE_NODES[1], field.grid.order,
+            values=lambda vv: direct(vv)[None], n_values=1, linear=True,
+        )
+        extra = np.concatenate(
+            [table.J(vf[i : i + 65536])[0] for i in range(0, vf.shape[0], 65536)], axis=0
+        )
+    else:
+        extra = direct(vf)
     extra = np.where(fin[:, None], np.maximum(extra, 0.0), np.nan)
     out = single.astype(float) + extra.reshape(single.shape)
     return out.astype(out_dtype)

@@ -318,6 +318,9 @@ _TWO_OVER_PI = 2.0 / np.pi
 class _SkyTable:
     """``J_g(μ, φ)`` of an observer inside a horizontally uniform atmosphere.
 
+    (``values``, if given, replaces ``J_g`` by any smooth function of the direction with
+    the same symmetry, returning (n_values, N, n_wl); multiple scattering uses it.)
+
     The phase-free integrals ``J_g`` depend only on the view zenith cosine ``μ`` and the
     azimuth ``φ`` relative to the sun, and are even in ``φ`` (the sky is symmetric about
     the solar vertical).  They are computed with the graded rule at Chebyshev nodes in
@@ -330,11 +333,24 @@ class _SkyTable:
     queries read bilinearly.
     """
 
-    def __init__(self, atm, r0, s, n_mu, n_phi, q, fine=None):
+    def __init__(
+        self, atm, r0, s, n_mu, n_phi, q, fine=None, values=None, n_values=None, linear=False
+    ):
         R = atm.planet_radius
         self.atm, self.r0 = atm, r0
-        # only profile groups that scatter contribute (absorbers enter through J of others)
-        self.groups = sorted({g for g, _, _ in atm.scatterers})
+        if values is None:
+            # only profile groups that scatter contribute (absorbers enter through J of
+            # the others)
+            self.groups = sorted({g for g, _, _ in atm.scatterers})
+
+            def values(v):
+                J = _evaluate_J(atm, r0, v, s, lambda b: _graded(b, q), _graded_cost(q))
+                return J[self.groups]
+
+            n_values = len(self.groups)
+        else:
+            self.groups = list(range(int(n_values)))
+        self._values = values
         self.mu_h = -np.sqrt(max(0.0, 1.0 - (R / r0) ** 2)) if r0 > R else 0.0
         sh = np.hypot(s[0], s[1])
         self.sun_az = np.arctan2(s[0], s[1]) if sh > 0 else 0.0
@@ -344,6 +360,10 @@ class _SkyTable:
             # ~64 MB at most for the resampled table (spectral runs have many channels)
             fine = (1025, 257) if channels <= 16 else (513, 129)
         self.dtype = np.float64 if channels <= 16 else np.float32
+        if linear:
+            # values with kinks (e.g. multilinearly interpolated fields): sample the
+            # uniform grid directly and interpolate bilinearly, no polynomial resampling
+            fine = (n_mu, n_phi)
         cphi = np.cos(np.pi * np.arange(n_phi) / (n_phi - 1))[::-1]  # Lobatto, increasing
         wphi = (-1.0) ** np.arange(n_phi) * 1.0
         wphi[[0, -1]] *= 0.5
@@ -354,6 +374,11 @@ class _SkyTable:
         mphi = _bary_matrix(cphi, wphi, cf)
         un = _cheb_nodes01(n_mu)
         mu_nodes = _bary_matrix(un, _bary_weights_cheb1(n_mu), uf)
+        self.linear = linear
+        if linear:
+            # nodes uniform in φ (w = 1 − 2φ/π), which the lookup then uses
+            cphi, un = np.cos(0.5 * np.pi * (1.0 - cf)), uf
+            mphi, mu_nodes = np.eye(nc_f), np.eye(nu_f)
         self.fine_sky = self._build(
             self.mu_h + (1.0 - self.mu_h) * np.sin(0.5 * np.pi * un) ** 2, cphi, s, q, mu_nodes, mphi
         )
@@ -361,6 +386,8 @@ class _SkyTable:
             ng = max(8, n_mu // 2)
             ug = _cheb_nodes01(ng)
             mg = _bary_matrix(ug, _bary_weights_cheb1(ng), uf)
+            if linear:
+                ug, mg = uf, np.eye(nu_f)
             self.fine_ground = self._build(
                 self.mu_h - (1.0 + self.mu_h) * np.sin(0.5 * np.pi * ug) ** 2, cphi, s, q, mg, mphi
             )
@@ -371,8 +398,7 @@ class _SkyTable:
         sin_t = np.sqrt(np.maximum(1.0 - mm * mm, 0.0))
         az = self.sun_az + pp
         v = np.stack([sin_t * np.sin(az), sin_t * np.cos(az), mm], axis=-1).reshape(-1, 3)
-        J = _evaluate_J(self.atm, self.r0, v, s, lambda b: _graded(b, q), _graded_cost(q))
-        J = J[self.groups]
+        J = self._values(v)
         G, nwl = J.shape[0], J.shape[-1]
         J = J.reshape(G, len(mus), len(cphi), nwl)
         # fine[g, i, j, w] = Σ_a Σ_b mmu[i, a] J[g, a, b, w] mphi[j, b]
@@ -404,6 +430,8 @@ class _SkyTable:
         ca, sa = np.cos(self.sun_az), np.sin(self.sun_az)
         c = np.where(h > 0, (v[:, 0] * sa + v[:, 1] * ca) / np.where(h > 0, h, 1.0), 1.0)
         c = np.clip(c, -1.0, 1.0)
+        if self.linear:
+            c = 1.0 - 2.0 / np.pi * np.arccos(c)
         G, nwl = len(self.groups), self.atm.n_wavelengths
         out = np.zeros((v.shape[0], G * nwl))
         sky = mu >= self.mu_h
