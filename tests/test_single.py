@@ -539,3 +539,13 @@ def test_convergence_study_smoke(tmp_path):
     for p in paths.values():
         assert p.exists() and p.stat().st_size > 0
     assert len(paths["csv"].read_text().strip().splitlines()) == len(records) + 1
+
+
+def test_wavelength_subset():
+    atm = ac.earth_atmosphere()
+    v = np.array([_dir(z, 30) for z in (0, 60, 85)])
+    full = single_scattering(atm, v, _sun(20))
+    sub = single_scattering(atm, v, _sun(20), wavelengths=[440.0, 680.0])
+    np.testing.assert_allclose(sub, full[:, [2, 0]], rtol=1e-12)
+    with pytest.raises(ValueError, match="wavelengths"):
+        single_scattering(atm, v, _sun(20), wavelengths=[500.0])

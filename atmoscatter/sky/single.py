@@ -632,12 +632,41 @@ def _reference(atm, r0, v, s, rtol):
     return result
 
 
+def _select_wavelengths(atmosphere, wavelengths):
+    """The atmosphere restricted to ``wavelengths`` (each must be one of its own)."""
+    import dataclasses
+
+    own = np.asarray(atmosphere.wavelengths_array, dtype=float)
+    want = np.atleast_1d(as_float_array(wavelengths, "wavelengths")).astype(float).ravel()
+    idx = []
+    for w in want:
+        hit = np.nonzero(np.isclose(own, w, rtol=0.0, atol=1e-6))[0]
+        if hit.size == 0:
+            raise ValueError(
+                f"wavelengths must be among the atmosphere's wavelengths {own.tolist()} nm "
+                f"(build the atmosphere for others), got {w!r}"
+            )
+        idx.append(int(hit[0]))
+    cons = tuple(
+        dataclasses.replace(
+            c,
+            scattering=tuple(np.asarray(c.scattering_array)[idx].tolist()),
+            absorption=tuple(np.asarray(c.absorption_array)[idx].tolist()),
+        )
+        for c in atmosphere.constituents
+    )
+    return dataclasses.replace(
+        atmosphere, wavelengths=tuple(own[idx].tolist()), constituents=cons
+    )
+
+
 def single_scattering(
     atmosphere,
     view_directions,
     sun_direction,
     *,
     altitude=0.0,
+    wavelengths=None,
     method: str | None = None,
     rtol: float | None = None,
     samples: int | None = None,
@@ -665,6 +694,10 @@ def single_scattering(
         Observer altitude above the surface [m], ≥ 0.  Above ``top_radius −
         planet_radius`` the observer is in space: rays missing the atmosphere give 0,
         others are integrated from where they enter.
+    wavelengths : array_like, optional
+        Subset of the atmosphere's wavelengths [nm] to compute (default: all of them,
+        e.g. the RGB sample wavelengths of the presets).  Coefficients exist only at the
+        atmosphere's own wavelengths; build the atmosphere for others.
     method : str, optional
         One of :data:`SINGLE_SCATTERING_METHODS`; ``None`` selects
         :data:`DEFAULT_SINGLE_SCATTERING_METHOD` with its default samples, measured to
@@ -696,6 +729,8 @@ def single_scattering(
     default is within 1e-3 (measured max relative error; see ``docs/convergence.md``);
     ``"reference"`` converges to ``rtol``.
     """
+    if wavelengths is not None:
+        atmosphere = _select_wavelengths(atmosphere, wavelengths)
     auto = method is None
     if auto:
         method = DEFAULT_SINGLE_SCATTERING_METHOD
