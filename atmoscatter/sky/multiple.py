@@ -283,13 +283,17 @@ class _FieldState:
         nwl = atm.n_wavelengths
         n_r, n_s, n_mu, n_phi = field.shape
         self.marches = {}
+        # the marched rays are kept between orders unless that would take much memory
+        # (many wavelengths): then they are recomputed for every order
+        self.keep = nwl * max(len(atm.scatterers), 1) <= 24
         L = np.zeros(field.shape + (nwl,))
         for i, h in enumerate(field.h_nodes):
             r0 = atm.planet_radius + h
             for j, th in enumerate(field.ths):
                 s = np.array([np.sin(th), 0.0, np.cos(th)])
                 mc = _march(atm, r0, dirs, s, grid.order)
-                self.marches[i, j] = mc
+                if self.keep:
+                    self.marches[i, j] = mc
                 # order 1: exact single scattering + ground-reflected direct sun
                 J = _single_J(atm, r0, dirs, s, grid.order)
                 B = atm.scattering_weights(np.clip(dirs @ s, -1.0, 1.0))
@@ -311,16 +315,26 @@ class _FieldState:
 
     def _next_field(self, S):
         f = self.field
-        n_mu, n_phi = f.shape[2:]
         E = _ground_irradiance(f, self.L) if self.albedo > 0 else None
         Lnew = np.zeros_like(self.L)
-        for (i, j), mc in self.marches.items():
-            path = _gather(f, mc, S)
-            if self.albedo > 0:
-                e = _interp_e(f, E, mc.mus_end)
-                path += np.where(mc.ground[:, None], mc.t_end * self.albedo / np.pi * e, 0.0)
-            Lnew[i, j] = path.reshape(n_mu, n_phi, -1)
+        dirs = f.directions()
+        for i, h in enumerate(f.h_nodes):
+            for j, th in enumerate(f.ths):
+                mc = self.marches.get((i, j))
+                if mc is None:
+                    s = np.array([np.sin(th), 0.0, np.cos(th)])
+                    mc = _march(self.atm, self.atm.planet_radius + h, dirs, s, f.grid.order)
+                self._accumulate(Lnew, i, j, mc, S, E)
         return Lnew
+
+    def _accumulate(self, Lnew, i, j, mc, S, E):
+        f = self.field
+        n_mu, n_phi = f.shape[2:]
+        path = _gather(f, mc, S)
+        if self.albedo > 0:
+            e = _interp_e(f, E, mc.mus_end)
+            path += np.where(mc.ground[:, None], mc.t_end * self.albedo / np.pi * e, 0.0)
+        Lnew[i, j] = path.reshape(n_mu, n_phi, -1)
 
     def source_sum(self, orders: int) -> np.ndarray:
         """Σ_{k=1}^{orders-1} S^k."""
