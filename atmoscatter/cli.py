@@ -24,6 +24,8 @@ import json
 import sys
 import time
 
+from .compare import add_compare_parser, run_compare
+
 __all__ = ["main"]
 
 
@@ -83,6 +85,7 @@ def _parser() -> argparse.ArgumentParser:
     common(v)
 
     sub.add_parser("models", help="list the available sky models")
+    add_compare_parser(sub)
     return p
 
 
@@ -108,7 +111,8 @@ def _cmd_render(args, out) -> int:
     t0 = time.perf_counter()
     img = render(scene, workers=args.workers, batch_size=args.batch_size)
     write_exr(args.output, img)
-    print(f"wrote {args.output} ({scene.projection} {'x'.join(map(str, img.shape))}, "
+    size = "x".join(map(str, img.shape[::-1]))
+    print(f"wrote {args.output} ({scene.projection} {size}, "
           f"model {scene.model}, {time.perf_counter() - t0:.2f} s)", file=out)
     if args.preview:
         write_preview(img, args.preview)
@@ -212,7 +216,7 @@ def main(argv=None) -> int:
         parser.print_help()
         return 2
     commands = {"render": _cmd_render, "batch": _cmd_batch, "info": _cmd_info,
-                "preview": _cmd_preview, "models": _cmd_models}
+                "preview": _cmd_preview, "models": _cmd_models, "compare": run_compare}
     try:
         return commands[args.command](args, sys.stdout)
     except KeyboardInterrupt:

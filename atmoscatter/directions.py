@@ -451,17 +451,22 @@ class ArrayDirections(DirectionSet):
         d = np.asarray(directions, dtype=float)
         if d.ndim < 1 or d.shape[-1] != 3:
             raise ValueError(f"directions must have shape (..., 3), got {d.shape}")
-        if not np.all(np.isfinite(d)):
-            raise ValueError("directions must be finite")
-        norm = np.linalg.norm(d, axis=-1)
-        if np.any(np.abs(norm - 1.0) > 1e-6):
-            raise ValueError("directions must be unit vectors (|d| = 1 within 1e-6)")
         self.shape = d.shape[:-1]
         self._flat = d.reshape(-1, 3)
         self.size = self._flat.shape[0]
 
     def directions(self, start, stop):
-        return self._flat[start:stop], np.ones(stop - start, dtype=bool)
+        """The given directions; checked per batch: finite unit vectors (|d|² = 1 ± 2e-6)."""
+        d = self._flat[start:stop]
+        n2 = d[:, 0] * d[:, 0]
+        n2 += d[:, 1] * d[:, 1]
+        n2 += d[:, 2] * d[:, 2]
+        if not np.all(np.abs(n2 - 1.0) <= 2e-6):  # NaN fails this test too
+            bad = int(np.flatnonzero(~(np.abs(n2 - 1.0) <= 2e-6))[0]) + start
+            raise ValueError(
+                f"directions must be finite unit vectors (|d| = 1 within 1e-6), got "
+                f"{self._flat[bad].tolist()} at index {bad}")
+        return d, np.ones(stop - start, dtype=bool)
 
     def solid_angles(self, start, stop):
         return np.full(stop - start, 4.0 * np.pi / max(self.size, 1))

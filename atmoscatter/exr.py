@@ -51,6 +51,15 @@ def spectral_channel_name(wavelength: float) -> str:
     return "S0." + f"{float(wavelength):.6f}".replace(".", ",") + "nm"
 
 
+def _current_umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+_UMASK = _current_umask()
+
+
 @contextlib.contextmanager
 def atomic_write(path):
     """Yield a temporary path next to ``path``; move it onto ``path`` only on success.
@@ -68,6 +77,7 @@ def atomic_write(path):
     os.close(fd)
     try:
         yield tmp
+        os.chmod(tmp, 0o666 & ~_UMASK)  # mkstemp creates 0600; give the usual permissions
         os.replace(tmp, path)
     except BaseException:
         with contextlib.suppress(FileNotFoundError):

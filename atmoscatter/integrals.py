@@ -219,8 +219,22 @@ def _frame(normal: np.ndarray) -> np.ndarray:
     return np.stack([t1, t2, n])
 
 
+def _is_sky_image(sky) -> bool:
+    return hasattr(sky, "directions_set") and hasattr(sky, "luminance")
+
+
 def _sample_sky(sky, directions, weights, *, domain: str, n_theta: int, n_phi):
     """Return (values (N,) or (N, C), directions (N, 3), weights (N,))."""
+    if _is_sky_image(sky):
+        if directions is not None or weights is not None:
+            raise ValueError("pass directions/weights only with sampled values, not a SkyImage")
+        dset = sky.directions_set
+        vals = np.asarray(sky.luminance, dtype=np.float64).reshape(-1)
+        dirs = np.asarray(dset.all_directions(), dtype=np.float64).reshape(-1, 3)
+        w = np.asarray(dset.solid_angles(0, dset.size), dtype=np.float64).reshape(-1)
+        if w.shape != vals.shape:
+            raise ValueError("this SkyImage has no per-direction solid angles")
+        return vals, dirs, w
     if callable(sky):
         if directions is not None or weights is not None:
             raise ValueError("pass directions/weights only with sampled values, not a callable sky")
@@ -279,9 +293,11 @@ def diffuse_irradiance(
 
     Parameters
     ----------
-    sky : callable or array_like
-        Sky radiance/luminance: ``sky(directions (N, 3)) -> (N,) or (N, C)``, or sampled
-        values with ``directions`` and ``weights`` (see the module docstring).
+    sky : callable, array_like or SkyImage
+        Sky radiance/luminance: ``sky(directions (N, 3)) -> (N,) or (N, C)``, sampled
+        values with ``directions`` and ``weights`` (see the module docstring), or a rendered
+        :class:`~atmoscatter.render.SkyImage` (its luminance [cd m⁻²] and pixel solid angles
+        are used: the result is illuminance [lx]).
     normal : array_like, shape (3,)
         Plane normal in the local frame (x east, y north, z up); normalised here.  Default:
         a horizontal plane facing up (diffuse horizontal irradiance/illuminance).
@@ -459,7 +475,7 @@ def real_sph_harm(order: int, directions, *, condon_shortley: bool = False):
     Returns
     -------
     ndarray, shape (..., (order + 1)²)
-        ``Y[..., l(l+1)+m]``, dimensionless [sr^-1/2 normalisation: ``∫ Y² dΩ = 1``].
+        ``Y[..., l(l+1)+m]``, normalised so that ``∫ Y² dΩ = 1`` (Ω in sr).
 
     Notes
     -----
@@ -511,9 +527,10 @@ def sh_project(
 
     Parameters
     ----------
-    sky : callable or array_like
-        ``sky(directions (N, 3)) -> (N,) or (N, C)``, or sampled values with ``directions``
-        and ``weights`` [sr].
+    sky : callable, array_like or SkyImage
+        ``sky(directions (N, 3)) -> (N,) or (N, C)``, sampled values with ``directions``
+        and ``weights`` [sr], or a rendered :class:`~atmoscatter.render.SkyImage` (its
+        luminance [cd m⁻²] with the pixel solid angles).
     order : int
         Highest SH degree L (default 4 → 25 coefficients).
     directions, weights : array_like, optional
@@ -537,9 +554,9 @@ def sh_project(
     Examples
     --------
     >>> import numpy as np
-    >>> c = sh_project(lambda d: np.ones(len(d)), order=2)
-    >>> round(float(c[0]), 10) == round(2 * np.sqrt(np.pi), 10)   # 4π · Y_00
-    True
+    >>> c = sh_project(lambda d: np.ones(len(d)), order=2)   # c_00 = 4π · Y_00 = 2√π
+    >>> print(f"{c[0]:.6f} {2 * np.sqrt(np.pi):.6f} {abs(c[1:]).max() < 1e-12}")
+    3.544908 3.544908 True
     """
     check_option(domain, "domain", ("sphere", "upper"))
     order = _check_count(order, "order", 0)
@@ -547,7 +564,7 @@ def sh_project(
         n_theta = max(DEFAULT_N_THETA, 2 * (order + 1))
     vals, dirs, w = _sample_sky(sky, directions, weights, domain=domain, n_theta=n_theta,
                                 n_phi=n_phi)
-    if domain == "upper" and not callable(sky):
+    if domain == "upper" and (_is_sky_image(sky) or not callable(sky)):
         w = np.where(dirs[:, 2] > 0.0, w, 0.0)
     y = real_sph_harm(order, dirs, condon_shortley=condon_shortley)
     vals = vals.astype(np.float64, copy=False)

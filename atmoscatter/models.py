@@ -58,6 +58,7 @@ __all__ = [
     "physical_adapter",
     "rgb_sampling_matrix",
     "CIE_SKY_CHROMATICITY",
+    "HOFFMAN_PREETHAM_HAZE_G",
 ]
 
 
@@ -93,6 +94,8 @@ class ModelAdapter:
         ``wavelengths(scene) -> tuple`` [nm] evaluated by a spectral model.
     error_estimate : str
         Stated accuracy of the model (recorded in the EXR header).
+    turbidity_range : tuple of float, optional
+        Turbidity range of a fitted model (outside it the model clamps and warns).
     """
 
     name: str
@@ -105,6 +108,7 @@ class ModelAdapter:
     cost_per_direction: float = 2e-7
     wavelengths: Callable = field(default=lambda scene: ())
     error_estimate: str = "not stated"
+    turbidity_range: tuple | None = None
 
 
 MODELS: dict[str, ModelAdapter] = {}
@@ -253,6 +257,7 @@ _CIE_CLEAR = ModelAdapter(
     "colour: D65 chromaticity",
     prepare=_prepare_cie_clear,
     cost_per_direction=2e-7,
+    turbidity_range=(2.0, 10.0),
     error_estimate="CIE standard distribution; absolute level from the Preetham zenith fit "
     "(turbidity 2-10); chromaticity assumed D65",
 )
@@ -266,6 +271,7 @@ _PREETHAM = ModelAdapter(
     separate_haze=False,
     ground_only=True,
     cost_per_direction=3e-7,
+    turbidity_range=(2.0, 10.0),
     error_estimate=(
         "Preetham 1999 fit to Nishita-type simulations; the authors do not state a bound; "
         "valid for turbidity 2-10 and the sun above the horizon"
@@ -357,10 +363,54 @@ def _physical_wavelengths(scene):
     return (680.0, 550.0, 440.0)
 
 
+def _per_irradiance_converter(wavelengths, rgb_sampled, plan):
+    """``convert(f)``: radiance per unit solar irradiance f (n, n_wl) [sr⁻¹] → plan's outputs.
+
+    Multiplies by the band-averaged ASTM G-173 ETR at the scene's Earth–Sun
+    distance and integrates with the CIE 1931 CMFs (K_m = 683 lm W⁻¹); RGB
+    samples are first expanded to a 380–780 nm spectrum as a power law
+    (:func:`rgb_sampling_matrix`).  Only ȳ is used when ``plan.quantity == "Y"``.
+    """
+    from .colour import K_M, cmf_weights  # noqa: PLC0415
+
+    wl = np.asarray(wavelengths, dtype=float)
+    if rgb_sampled:
+        A = rgb_sampling_matrix(wl)
+        grid = FINE_GRID
+        W = cmf_weights(grid) * (K_M * _band_etr(grid, plan.distance_au))[:, None]
+    E = _band_etr(wl, plan.distance_au)
+    if not rgb_sampled:
+        order = np.argsort(wl)
+        W = np.empty((wl.size, 3))
+        W[order] = cmf_weights(wl[order])
+        W *= (K_M * E)[:, None]
+    Wq = W[:, 1:2] if plan.quantity == "Y" else W
+
+    def convert(f):
+        f = np.maximum(np.asarray(f, dtype=float), 0.0)
+        out = {}
+        if rgb_sampled:
+            logf = np.log(np.maximum(f, 1e-300))
+            lo = logf.min(axis=-1, keepdims=True) - 20.0
+            hi = logf.max(axis=-1, keepdims=True) + 3.0
+            fine = np.exp(np.clip(logf @ A, lo, hi))
+            fine[np.all(f == 0.0, axis=-1)] = 0.0
+            res = fine @ Wq
+        else:
+            res = f @ Wq
+        if plan.quantity == "spectral":
+            out["spectral"] = f * E
+        if plan.quantity == "Y":
+            out["Y"] = res[..., 0]
+        else:
+            out["XYZ"] = res
+        return out
+
+    return convert
+
+
 def _make_physical_prepare(function_name):
     def prepare(scene, plan):
-        from .colour import K_M, cmf_weights  # noqa: PLC0415
-
         fn = _lookup(function_name)
         if fn is None:
             raise ValueError(f"model {function_name!r} is not available in this installation")
@@ -373,44 +423,78 @@ def _make_physical_prepare(function_name):
         elif scene.method is not None:
             kwargs["method"] = scene.method
         rgb_sampled = not (scene.sampling == "spectral" or scene.output == "spectral")
-        if rgb_sampled:
-            A = rgb_sampling_matrix(wl)
-            grid = FINE_GRID
-            E = _band_etr(grid, plan.distance_au)
-            W = cmf_weights(grid) * (K_M * E)[:, None]  # XYZ = f_fine @ W
-        else:
-            order = np.argsort(wl)
-            E = _band_etr(wl, plan.distance_au)
-            W = np.empty((wl.size, 3))
-            W[order] = cmf_weights(wl[order])
-            W *= (K_M * E)[:, None]
-        Wq = W[:, 1:2] if plan.quantity == "Y" else W
+        convert = _per_irradiance_converter(wl, rgb_sampled, plan)
 
         def evaluate(directions):
-            f = np.asarray(fn(atm, directions, sun, **kwargs), dtype=float)
-            f = np.maximum(f, 0.0)
-            out = {}
-            if rgb_sampled:
-                logf = np.log(np.maximum(f, 1e-300))
-                lo = logf.min(axis=-1, keepdims=True) - 20.0
-                hi = logf.max(axis=-1, keepdims=True) + 3.0
-                fine = np.exp(np.clip(logf @ A, lo, hi))
-                fine[np.all(f == 0.0, axis=-1)] = 0.0
-                res = fine @ Wq
-            else:
-                res = f @ Wq
-                if plan.quantity == "spectral":
-                    out["spectral"] = f * E
-            if plan.quantity == "Y":
-                out["Y"] = res[..., 0]
-            else:
-                out["XYZ"] = res
-            return out
+            return convert(fn(atm, directions, sun, **kwargs))
 
         evaluate.atmosphere = atm
         return evaluate
 
     return prepare
+
+
+# ----------------------------------------------------------------------------
+# Hoffman–Preetham two-shell sky (seed 000)
+# ----------------------------------------------------------------------------
+#: Hoffman–Preetham haze asymmetry used with turbidity-derived haze (Bruneton 2017's g).
+HOFFMAN_PREETHAM_HAZE_G = 0.8
+
+
+def _hoffman_preetham_wavelengths(scene):
+    if scene.sampling == "spectral" or scene.output == "spectral":
+        wl = list(_physical_wavelengths(scene))
+        while len(wl) % 3:  # the model evaluates three channels per call
+            wl.append(wl[-1] + scene.wavelength_step)
+        return tuple(wl)
+    return tuple(float(w) for w in _lookup("HOFFMAN_PREETHAM_WAVELENGTHS"))
+
+
+def _prepare_hoffman_preetham(scene, plan):
+    from .scattering import mie_scattering, rayleigh_scattering  # noqa: PLC0415
+
+    fn = _lookup("hoffman_preetham_sky")
+    haze_preset = _lookup("HazePreset")
+    wl = np.asarray(plan.wavelengths, dtype=float)
+    sun = plan.sun_direction
+    triples = []
+    for w in wl.reshape(-1, 3):  # the model works on three channels at a time
+        if plan.haze:
+            sc = np.asarray(mie_scattering(w, turbidity=scene.turbidity), dtype=float)
+            haze = haze_preset(f"turbidity {scene.turbidity:g}", tuple(sc),
+                               HOFFMAN_PREETHAM_HAZE_G,
+                               note="sea-level haze from atmoscatter.mie_scattering(turbidity)")
+        else:
+            haze = None  # turbidity 1: no haze shell terms
+        triples.append((np.asarray(rayleigh_scattering(w), dtype=float), haze))
+    rgb_sampled = wl.size == 3
+    convert = _per_irradiance_converter(wl, rgb_sampled, plan)
+    ones = np.ones(3)
+
+    def evaluate(directions):
+        # E_sun⁰ = 1 per channel: radiance per unit extraterrestrial irradiance [sr⁻¹]
+        f = [fn(directions, sun, haze=h, sun_irradiance=ones, air_scattering=b)
+             for b, h in triples]
+        return convert(np.concatenate(f, axis=-1))
+
+    evaluate.hazes = [h for _, h in triples]
+    return evaluate
+
+
+_HOFFMAN_PREETHAM = ModelAdapter(
+    name="hoffman_preetham",
+    description="Hoffman & Preetham (2002) two-shell sky (seed 000), haze from the turbidity",
+    prepare=_prepare_hoffman_preetham,
+    spectral=True,
+    separate_haze=True,
+    ground_only=True,
+    cost_per_direction=4e-7,
+    wavelengths=_hoffman_preetham_wavelengths,
+    error_estimate=(
+        "single scattering in a constant-density two-shell atmosphere (seed 000); "
+        "an approximation, not a reference: compare with single_scattering"
+    ),
+)
 
 
 def physical_adapter(function_name: str) -> ModelAdapter:
@@ -449,6 +533,9 @@ def _register_available():
         register_model(_CIE_OVERCAST, replace=True)
     if _lookup("cie_clear_sky") is not None and _lookup("cie_zenith_luminance") is not None:
         register_model(_CIE_CLEAR, replace=True)
+    if all(_lookup(n) is not None for n in ("hoffman_preetham_sky", "HazePreset",
+                                             "HOFFMAN_PREETHAM_WAVELENGTHS")):
+        register_model(_HOFFMAN_PREETHAM, replace=True)
     for name in ("single_scattering", "multiple_scattering"):
         if _lookup(name) is not None:
             register_model(physical_adapter(name), replace=True)

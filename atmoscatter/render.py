@@ -46,7 +46,7 @@ __all__ = ["SkyImage", "render", "render_batches", "sun_disc_radiance", "LIMB_DA
 #: Linear limb-darkening coefficient u in ``I(μ)/I(1) = 1 − u (1 − μ)``: the
 #: Eddington approximation for a grey atmosphere, ``I(μ) ∝ (2 + 3μ)/5`` (e.g.
 #: Mihalas 1978, *Stellar Atmospheres*, §3-3), u = 0.6 at all wavelengths.  The
-#: observed solar value at 550 nm is close to it (Neckel & Labs 1994).
+#: real Sun darkens more in the blue than in the red; that dependence is not modelled.
 LIMB_DARKENING_U = 0.6
 
 
@@ -234,7 +234,12 @@ class _Context:
         self.lock = threading.Lock()
 
     def _ground_value(self):
-        """ρ E_h / π from the model's own upper-hemisphere radiance (no direct sun)."""
+        """ρ (E_sky + E_sun) / π: Lambertian ground under the model's sky and the direct sun.
+
+        E_sky from a 16 × 64 Gauss–Legendre × uniform quadrature of the model's
+        upper-hemisphere radiance; E_sun = E·T·cos θ_s, the transmitted direct
+        beam of :func:`sun_disc_radiance` (0 with the sun below the horizon).
+        """
         x, w = np.polynomial.legendre.leggauss(16)
         mu = 0.5 * (x + 1.0)
         wmu = 0.5 * w
@@ -247,39 +252,68 @@ class _Context:
         weight = (np.outer(wmu * mu, np.full(naz, 2.0 * np.pi / naz))).ravel()
         vals = res[self.key].reshape(len(d), -1)
         eh = weight @ vals
+        cos_sun = max(math.cos(self.plan.sun_zenith), 0.0)
+        if cos_sun > 0.0:
+            xyz_c, a, (grid, L) = sun_disc_radiance(self.scene, self.plan)
+            beam = 2.0 * math.pi * (1.0 - math.cos(a)) * (1.0 - LIMB_DARKENING_U / 3.0) * cos_sun
+            eh = eh + (xyz_c[1:2] if self.key == "Y" else xyz_c) * beam
         self.ground = self.scene.ground_albedo * eh / np.pi
         if self.nspec and "spectral" in res:
-            self.ground_spec = self.scene.ground_albedo * (weight @ res["spectral"]) / np.pi
+            es = weight @ res["spectral"]
+            if cos_sun > 0.0:
+                es = es + np.interp(np.asarray(self.plan.wavelengths), grid, L) * beam
+            self.ground_spec = self.scene.ground_albedo * es / np.pi
+
+    def _eval(self, dirs):
+        if self.plan.symmetry:
+            uniq, inv = mirror_pairs(dirs, self.sun)
+            res = self.evaluate(uniq)
+            return {k: np.asarray(v)[inv] for k, v in res.items()}
+        return self.evaluate(dirs)
 
     def batch(self, start: int, stop: int) -> dict:
-        """Evaluate directions ``start:stop``; returns per-direction arrays."""
+        """Evaluate directions ``start:stop``; returns per-direction arrays.
+
+        ``alpha`` is a bool mask of the evaluated directions, or None when all were.
+        """
         plan = self.plan
         dirs, valid = self.dset.directions(start, stop)
         n = len(dirs)
-        todo = valid.copy()
+        todo = None if valid.all() else valid
         below = None
         if plan.skip_below_horizon:
-            below = valid & (dirs[:, 2] < plan.horizon_z)
-            todo &= ~below
-        vals = np.zeros((n, self.nval))
-        spec = np.zeros((n, self.nspec)) if self.nspec else None
-        sel = dirs[todo] if not todo.all() else dirs
-        if len(sel):
-            if plan.symmetry:
-                uniq, inv = mirror_pairs(sel, self.sun)
-                res = self.evaluate(uniq)
-                res = {k: np.asarray(v)[inv] for k, v in res.items()}
-            else:
-                res = self.evaluate(sel)
-            vals[todo] = np.asarray(res[self.key]).reshape(len(sel), self.nval)
-            if spec is not None:
-                spec[todo] = res["spectral"]
-        if below is not None and below.any():
-            vals[below] = self.ground
-            if spec is not None:
-                spec[below] = self.ground_spec
+            b = dirs[:, 2] < plan.horizon_z
+            if todo is not None:
+                b &= todo
+            if b.any():
+                below = b
+                todo = ~b if todo is None else (todo & ~b)
+        spec = None
+        if todo is None:  # everything is evaluated: no masks, no copies
+            res = self._eval(dirs)
+            vals = np.asarray(res[self.key]).reshape(n, self.nval)
+            if self.nspec:
+                spec = np.asarray(res["spectral"])
+        else:
+            vals = np.zeros((n, self.nval))
+            if self.nspec:
+                spec = np.zeros((n, self.nspec))
+            idx = np.flatnonzero(todo)
+            if idx.size:
+                res = self._eval(dirs[idx])
+                vals[idx] = np.asarray(res[self.key]).reshape(idx.size, self.nval)
+                if spec is not None:
+                    spec[idx] = res["spectral"]
+            if below is not None:
+                vals[below] = self.ground
+                if spec is not None:
+                    spec[below] = self.ground_spec
         if self.disc is not None:
-            self._add_disc(dirs, todo, vals, spec, start)
+            vals = np.array(vals, dtype=float)  # own copy: the disc is added in place
+            if spec is not None:
+                spec = np.array(spec, dtype=float)
+            mask = np.ones(n, dtype=bool) if todo is None else todo
+            self._add_disc(dirs, mask, vals, spec, start)
         return {"values": vals, "spectral": spec, "alpha": todo}
 
     def _add_disc(self, dirs, todo, vals, spec, start):
@@ -379,12 +413,13 @@ def render(scene: Scene | None = None, *, directions=None, batch_size: int | Non
     dset = direction_set(scene, p) if directions is None else ArrayDirections(directions)
     ctx = _Context(scene, p, dset)
     n = dset.size
-    vals = np.zeros((n, ctx.nval), dtype=np.float32)
-    spec = np.zeros((n, ctx.nspec), dtype=np.float32) if ctx.nspec else None
-    alpha = np.zeros(n, dtype=np.float32)
     chroma_rgb = ctx.key == "XYZ"
-    rgb = np.zeros((n, 3), dtype=np.float32) if chroma_rgb else None
     keep_xyz = "XYZ" in p.layers
+    # only the layers asked for are stored (float32)
+    vals = np.empty((n, ctx.nval), dtype=np.float32) if (keep_xyz or not chroma_rgb) else None
+    spec = np.empty((n, ctx.nspec), dtype=np.float32) if ctx.nspec else None
+    alpha = np.empty(n, dtype=np.float32)
+    rgb = np.empty((n, 3), dtype=np.float32) if chroma_rgb else None
     if chroma_rgb:
         from .colour import XYZ_to_linear_rgb  # noqa: PLC0415
 
@@ -394,12 +429,13 @@ def render(scene: Scene | None = None, *, directions=None, batch_size: int | Non
         s, e = bounds
         b = ctx.batch(s, e)
         v = b["values"]
-        vals[s:e] = v
+        if vals is not None:
+            vals[s:e] = v
         if rgb is not None:
-            rgb[s:e] = v @ m_rgb
+            np.matmul(v, m_rgb, out=rgb[s:e], casting="same_kind")
         if spec is not None:
             spec[s:e] = b["spectral"]
-        alpha[s:e] = b["alpha"]
+        alpha[s:e] = 1.0 if b["alpha"] is None else b["alpha"]
 
     bounds = dset.batches(p.batch_size)
     nw = _default_workers() if workers is None else max(1, int(workers))
@@ -420,7 +456,8 @@ def render(scene: Scene | None = None, *, directions=None, batch_size: int | Non
         if omega_pix > 0 and math.acos(min(1.0, ctx.nearest[0])) <= 2.0 * math.sqrt(omega_pix):
             scale = omega_sun * (1.0 - LIMB_DARKENING_U / 3.0) / omega_pix
             add = xyz_c * scale
-            vals[i] += add.astype(np.float32)
+            if vals is not None:
+                vals[i] += add.astype(np.float32)
             if rgb is not None:
                 rgb[i] += (add @ m_rgb).astype(np.float32)
             if spec is not None:

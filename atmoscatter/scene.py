@@ -338,8 +338,8 @@ def _validate(s: Scene) -> None:
         raise ValueError(f"model={s.model!r} is not valid; choose one of {sorted(MODELS)}")
     _check(s.turbidity >= 1.0, f"turbidity must be in [1, inf) (1 = no haze), got {s.turbidity!r}")
     _check(-90.0 <= s.latitude <= 90.0, f"latitude must be in [-90, 90] deg, got {s.latitude!r}")
-    _check(-180.0 <= s.longitude <= 360.0,
-           f"longitude must be in [-180, 360] deg, got {s.longitude!r}")
+    _check(-360.0 <= s.longitude <= 360.0,
+           f"longitude must be in [-360, 360] deg, got {s.longitude!r}")
     if s.sun_elevation_deg is not None:
         _check(-90.0 <= s.sun_elevation_deg <= 90.0,
                f"sun_elevation_deg must be in [-90, 90] deg, got {s.sun_elevation_deg!r}")
@@ -517,6 +517,9 @@ class Plan:
         Whether chromaticity (x, y) is computed at all.
     haze : bool
         Whether an aerosol/haze term is evaluated (False at turbidity 1).
+    haze_separate : bool
+        Whether the model has a separate haze term at all (Preetham and the
+        CIE skies fold turbidity into their fits).
     spectral_integration : str
         ``"none"``, ``"Y only"`` (ȳ only) or ``"XYZ"`` (three CMFs).
     wavelengths : tuple of float
@@ -550,6 +553,7 @@ class Plan:
     layers: tuple
     chromaticity: bool
     haze: bool
+    haze_separate: bool
     spectral_integration: str
     wavelengths: tuple
     skip_below_horizon: bool
@@ -590,7 +594,8 @@ class Plan:
             f"sun              : zenith {math.degrees(self.sun_zenith):.4f} deg, azimuth "
             f"{math.degrees(self.sun_azimuth):.4f} deg ({self.sun_source}); "
             f"Earth-Sun distance {self.distance_au:.5f} AU",
-            f"haze term        : {'yes' if self.haze else 'skipped'}",
+            "haze term        : " + (("yes" if self.haze else "skipped") if self.haze_separate
+                                     else "part of the fit (turbidity is a fit parameter)"),
             f"chromaticity     : {'yes' if self.chromaticity else 'skipped'}",
             f"spectral integr. : {self.spectral_integration}"
             + (f" over {len(self.wavelengths)} wavelengths" if self.wavelengths else ""),
@@ -611,7 +616,7 @@ def _ground_value_text(scene: Scene) -> str:
     if scene.ground_albedo == 0.0:
         return "0 (black ground, ground_albedo = 0)"
     return (f"a Lambertian ground of albedo {scene.ground_albedo:g} lit by the model's own "
-            "diffuse sky (rho * E_h / pi, no direct sun)")
+            "sky and the transmitted direct sun (rho * E_h / pi)")
 
 
 def plan(scene: Scene, *, batch_size: int | None = None) -> Plan:
@@ -667,6 +672,11 @@ def plan(scene: Scene, *, batch_size: int | None = None) -> Plan:
         haze = scene.turbidity > 1.0
         notes.append(f"{scene.model}: turbidity is a parameter of the fit (no separate haze term)")
 
+    rng = adapter.turbidity_range
+    if rng is not None and not rng[0] <= scene.turbidity <= rng[1]:
+        notes.append(f"turbidity {scene.turbidity:g} is outside {scene.model}'s fit range "
+                     f"{rng[0]:g}-{rng[1]:g}: the model clamps it (with a warning)")
+
     # spectral sampling ----------------------------------------------------------
     if adapter.spectral:
         wavelengths = adapter.wavelengths(scene)
@@ -714,6 +724,7 @@ def plan(scene: Scene, *, batch_size: int | None = None) -> Plan:
         layers=layers,
         chromaticity=chroma,
         haze=haze,
+        haze_separate=adapter.separate_haze,
         spectral_integration=integration,
         wavelengths=tuple(float(w) for w in wavelengths),
         skip_below_horizon=skip_below,

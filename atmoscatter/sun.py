@@ -255,8 +255,10 @@ def default_delta_t(time):
     -----
     The polynomials fit observed ΔT to about a second over 1900–2005.  Their 2005–2050 piece is
     an extrapolation published in 2006 that overestimates the observed ΔT (IERS) by about 2 s in
-    2015 and 5 s in 2025; a 1 s error in ΔT moves the Sun by up to 0.004° (15″) in hour angle.
-    Pass ``delta_t=`` explicitly (e.g. from IERS Bulletin A) for the best absolute accuracy.
+    2015 and 5 s in 2025.  ΔT only shifts the ephemeris time (Earth's rotation uses UT), so a
+    ΔT error of 1 s moves the Sun by about 1.2e-5° (its orbital motion in 1 s; measured: 5 s →
+    5.9e-5°).  Pass ``delta_t=`` explicitly (e.g. from IERS Bulletin A) for the best absolute
+    accuracy.
 
     Examples
     --------
@@ -281,6 +283,8 @@ _B = [_table(getattr(_tab, f"B{i}")) for i in range(2)]
 _R = [_table(getattr(_tab, f"R{i}")) for i in range(5)]
 _NUT_ARGS_INT = np.asarray(_tab.NUTATION_ARGS, dtype=np.int64)
 _NUT_COEFFS = np.asarray(_tab.NUTATION_COEFFS, dtype=np.float64)  # (63, 4) in 1e-4 arcsec
+_NUT_PSI = np.ascontiguousarray(_NUT_COEFFS[:, :2].T)  # (2, 63): a, b
+_NUT_EPS = np.ascontiguousarray(_NUT_COEFFS[:, 2:].T)  # (2, 63): c, d
 
 
 def _earth_series(series, jme: np.ndarray) -> np.ndarray:
@@ -288,25 +292,66 @@ def _earth_series(series, jme: np.ndarray) -> np.ndarray:
     total = np.zeros_like(jme)
     for power, (a, b, c) in enumerate(series):
         term = np.cos(b[:, None] + c[:, None] * jme[None, :])
-        total += (a @ term) * jme**power
+        # einsum, not a BLAS gemv: gemv goes multithreaded at this size and stalls under load
+        total += np.einsum("k,kn->n", a, term) * jme**power
     return total * 1e-8
 
 
-def _spa_time_terms(d: np.ndarray, dt_s: np.ndarray) -> dict[str, np.ndarray]:
+#: Nodes per run for :func:`_earth_series_runs`.
+_RUN = 32
+_ROTATIONS: dict[tuple[int, float], list] = {}
+
+
+def _earth_series_runs(series, jme: np.ndarray, step: float) -> np.ndarray:
+    """:func:`_earth_series` for runs of ``_RUN`` nodes nominally ``step`` [millennia] apart.
+
+    Within a run starting at JME₀, ``e^{i(B + C·JME_k)} = e^{i(B + C·JME₀)} · e^{iC·k·step} ·
+    e^{iC·ε_k}`` with ``ε_k = JME_k − JME₀ − k·step`` (the change of ΔT along the run,
+    |C·ε| < 1e-6, kept to first order: error < 1e-12).  The sum over terms then becomes a
+    complex matrix product, so a run costs one cos/sin per term instead of ``_RUN``.
+    """
+    n_runs = jme.size // _RUN
+    runs = jme.reshape(n_runs, _RUN)
+    start = runs[:, 0]
+    eps = runs - start[:, None] - np.arange(_RUN) * step
+    key = (id(series), float(step))
+    if key not in _ROTATIONS:
+        k = np.arange(_RUN) * step
+        _ROTATIONS[key] = [np.exp(1j * c[:, None] * k[None, :]) for _, _, c in series]
+        if len(_ROTATIONS) > 8:  # pragma: no cover - only a few steps are ever used
+            _ROTATIONS.pop(next(iter(_ROTATIONS)))
+    rot = _ROTATIONS[key]
+    total = np.zeros_like(runs)
+    for power, (a, b, c) in enumerate(series):
+        e0 = np.exp(1j * (b[:, None] + c[:, None] * start[None, :]))  # (terms, n_runs)
+        s_cos = (a[:, None] * e0).T @ rot[power]  # Σ A e^{i·angle}: real part = Σ A cos
+        s_sin = ((a * c)[:, None] * e0).T @ rot[power]  # imaginary part = Σ A C sin
+        total += (s_cos.real - eps * s_sin.imag) * runs**power
+    return total.ravel() * 1e-8
+
+
+def _spa_time_terms(d: np.ndarray, dt_s: np.ndarray, *, run_step=None) -> dict[str, np.ndarray]:
     """Time-only SPA quantities for 1-D float ``d`` (days since J2000 UT, finite).
 
     Returns a dict of 1-D arrays: ``q`` [rad] such that the geocentric local hour angle is
     ``H = 2π·frac(d) + longitude − q``; ``dec`` (geocentric apparent declination) [rad],
-    ``sin_dec``; ``dist`` [AU]; ``eot`` (equation of time) [min].
+    ``sin_dec``; ``dist`` [AU]; ``eot`` (equation of time) [min].  With ``run_step`` [days],
+    ``d`` is made of runs of ``_RUN`` times that far apart (see :func:`_earth_series_runs`).
     """
     jc = d / 36525.0
     jde = d + dt_s / 86400.0
     jce = jde / 36525.0
     jme = jce / 10.0
     # heliocentric longitude, latitude, radius (Eq. 9–11) [rad, rad, AU]
-    lon_h = _earth_series(_L, jme)
-    lat_h = _earth_series(_B, jme)
-    radius = _earth_series(_R, jme)
+    if run_step is None:
+        lon_h = _earth_series(_L, jme)
+        lat_h = _earth_series(_B, jme)
+        radius = _earth_series(_R, jme)
+    else:
+        step = run_step / 365250.0
+        lon_h = _earth_series_runs(_L, jme, step)
+        lat_h = _earth_series_runs(_B, jme, step)
+        radius = _earth_series_runs(_R, jme, step)
     # geocentric (Eq. 13–14)
     theta = lon_h + np.pi
     beta = -lat_h
@@ -329,9 +374,12 @@ def _spa_time_terms(d: np.ndarray, dt_s: np.ndarray) -> dict[str, np.ndarray]:
     rot = powers[_NUT_ARGS_INT[:, 0] + 2, 0]
     for j in range(1, 5):
         rot = rot * powers[_NUT_ARGS_INT[:, j] + 2, j]
-    a, b, c, dd = _NUT_COEFFS.T
-    dpsi = np.einsum("kn,kn->n", a[:, None] + b[:, None] * jce, rot.imag)
-    deps = np.einsum("kn,kn->n", c[:, None] + dd[:, None] * jce, rot.real)
+    # real matrix products on the real/imaginary parts: a complex matrix-vector product with a
+    # real vector goes through a multithreaded zgemv that stalls badly on a busy machine
+    sums_psi = _NUT_PSI @ rot.imag  # (2, n): Σ a sin, Σ b sin
+    sums_eps = _NUT_EPS @ rot.real  # (2, n): Σ c cos, Σ d cos
+    dpsi = sums_psi[0] + jce * sums_psi[1]
+    deps = sums_eps[0] + jce * sums_eps[1]
     dpsi = dpsi * (_DEG / 36e6)  # 0.0001″ → rad
     deps = deps * (_DEG / 36e6)
     # obliquity (Eq. 24–25)
@@ -408,12 +456,26 @@ def _spa_interpolated(d: np.ndarray, dt_const) -> dict[str, np.ndarray] | None:
     for s in range(4):
         need[s : s + span] |= occ
     node_pos = np.flatnonzero(need)
-    if node_pos.size > n_finite // 2:
+    # evaluate whole runs of _RUN consecutive nodes (cheap per node, see _earth_series_runs)
+    node_ids = node_pos + (lo - 1)
+    run_ids = np.unique(node_ids // _RUN)
+    if run_ids.size * _RUN > 2 * n_finite:
         return None
-    dn = (node_pos + (lo - 1)) * _NODE_STEP
-    dt_nodes = _delta_t_of_year(2000.0 + dn / 365.25) if dt_const is None else dt_const
-    vals = _spa_direct(dn, np.broadcast_to(np.asarray(dt_nodes, dtype=np.float64), dn.shape))
-    y = np.stack([vals[c] for c in _COLUMNS], axis=-1)  # (n_nodes, ncol)
+    y = np.empty((node_ids.size, len(_COLUMNS)))
+    runs_per_block = 16
+    for s in range(0, run_ids.size, runs_per_block):
+        rid = run_ids[s : s + runs_per_block]
+        ids = (rid[:, None] * _RUN + np.arange(_RUN)).ravel()
+        dn = ids * _NODE_STEP
+        dtn = _delta_t_of_year(2000.0 + dn / 365.25) if dt_const is None else np.full(
+            dn.shape, float(dt_const)
+        )
+        vals = _spa_time_terms(dn.astype(np.float64), dtn, run_step=_NODE_STEP)
+        lo_i = np.searchsorted(node_ids, ids[0])
+        hi_i = np.searchsorted(node_ids, ids[-1], side="right")
+        pick = node_ids[lo_i:hi_i] - ids[0]
+        for j, name in enumerate(_COLUMNS):
+            y[lo_i:hi_i, j] = vals[name][pick]
     row = np.full(span + 3, -1, dtype=np.int64)
     row[node_pos] = np.arange(node_pos.size)
     occ_ids = np.flatnonzero(occ)
@@ -555,6 +617,29 @@ def _block(d, q, sin_dec, sin_xi, lon_rad, sphi, cphi, xs, ys, p_hpa, temp_c, re
     return zen, true_zen, azimuth, direction
 
 
+def _blocks(shape: tuple[int, ...], chunk: int):
+    """Index tuples covering ``shape`` in blocks of at most ``chunk`` elements (C order).
+
+    Blocks are slices of the leading axis when a row fits, else single leading indices with
+    the rest split recursively, so memory stays bounded whatever the shape.
+    """
+    if len(shape) == 0:
+        yield ()
+        return
+    inner = int(np.prod(shape[1:], dtype=np.int64))
+    if inner <= chunk:
+        rows = max(1, chunk // max(inner, 1))
+        for s in range(0, shape[0], rows):
+            yield (slice(s, s + rows),)
+        return
+    if len(shape) == 1:  # pragma: no cover - inner == 1 always fits
+        yield (slice(None),)
+        return
+    for i in range(shape[0]):
+        for sub in _blocks(shape[1:], chunk):
+            yield (i, *sub)
+
+
 # ---------------------------------------------------------------------------------------------
 # result types and registry
 # ---------------------------------------------------------------------------------------------
@@ -686,8 +771,8 @@ def sun_position(
     are computed once per time, shared across sites, and — for batches with many times per
     2-day interval — evaluated at nodes every 2 days and interpolated with a 4-point cubic;
     the added error is < 2e-5° (measured ~4e-6°, see ``tests/test_sun.py``).  Validity: the SPA
-    claims ±0.0003° for years −2000…6000 given the true ΔT; the default ΔT polynomial limits
-    the absolute accuracy (see :func:`default_delta_t`).
+    claims ±0.0003° for years −2000…6000 given the true ΔT; the default ΔT polynomial's error
+    (≤ 5 s for 1900–2025) adds ≤ 6e-5° (see :func:`default_delta_t`).
 
     *iqbal*: seed 003 Sec. 3 with errata 003.1 (solar time with east-positive longitude):
     declination ``δ = 0.4093 sin(2π(J − 81)/368)``, solar time
@@ -750,14 +835,9 @@ def sun_position(
     azi = np.empty(shape)
     direc = np.empty((*shape, 3))
     ins = [d, cols["q"], cols["sin_dec"], sin_xi, lon_rad, sphi, cphi, xs, ys, p_hpa, temp_c]
-    if len(shape) == 0:
-        zen[()], tzen[()], azi[()], direc[...] = _block(*ins, refraction)
-    else:
-        ins = [np.broadcast_to(a, shape) for a in ins]
-        rows = max(1, _CHUNK // max(1, int(np.prod(shape[1:]))))
-        for s in range(0, shape[0], rows):
-            sl = slice(s, s + rows)
-            zen[sl], tzen[sl], azi[sl], direc[sl] = _block(*(a[sl] for a in ins), refraction)
+    ins = [np.broadcast_to(a, shape) for a in ins]
+    for idx in _blocks(shape, _CHUNK):
+        zen[idx], tzen[idx], azi[idx], direc[idx] = _block(*(a[idx] for a in ins), refraction)
 
     def fin(a):
         a = a.astype(out_dtype, copy=False)
@@ -836,6 +916,38 @@ class SunriseSunset:
     day_length: np.ndarray
 
 
+def _as_dates(dates, name: str) -> np.ndarray:
+    """Calendar dates as ``datetime64[D]``: the *local* date of timezone-aware values.
+
+    A date names a day, not an instant, so naive ``datetime``/pandas values are accepted here,
+    and an aware value (e.g. local midnight) keeps its own calendar date instead of the UTC one.
+    """
+    if _is_pandas(dates) and hasattr(dates, "__len__"):
+        import pandas as pd
+
+        try:
+            idx = pd.DatetimeIndex(dates)
+        except (TypeError, ValueError) as exc:
+            raise TypeError(f"{name} must hold dates, got {type(dates).__name__}") from exc
+        if idx.tz is not None:
+            idx = idx.tz_localize(None)
+        return idx.values.astype("datetime64[D]").reshape(np.shape(dates))
+
+    def one(v):
+        if _is_pandas(v) and str(v) != "NaT":
+            v = v.to_pydatetime()
+        if isinstance(v, _dt.datetime):
+            return np.datetime64(v.date(), "D")
+        return _scalar_to_datetime64(v, name).astype("datetime64[D]")
+
+    arr = dates if isinstance(dates, np.ndarray) else np.asarray(dates)
+    if arr.dtype.kind == "O":
+        if arr.ndim == 0:
+            return np.asarray(one(arr.item()))
+        return np.array([one(v) for v in arr.ravel()], dtype="datetime64[D]").reshape(arr.shape)
+    return _as_datetime64(arr, name).astype("datetime64[D]")
+
+
 def _hour_angle(d, lon_rad, q):
     """Geocentric local hour angle wrapped to [−π, π)."""
     h = _TWO_PI * (d - np.floor(d)) + lon_rad - q
@@ -855,10 +967,12 @@ def sunrise_sunset(dates, latitude, longitude, *, horizon=HORIZON_APPARENT, delt
     Parameters
     ----------
     dates : datetime64[D]-like or array
-        Local calendar dates.  The events returned are those of the solar day centred on the
-        local *mean* noon of that date, i.e. on ``date 12:00 UTC − longitude/15 h``; for civil
-        time zones within an hour or so of mean solar time this is the civil date.  Values with a
-        time of day are truncated to the date.
+        Local calendar dates (``datetime64``, ``datetime.date``, ISO strings, pandas).  The
+        events returned are those of the solar day centred on the local *mean* noon of that
+        date, i.e. on ``date 12:00 UTC − longitude/15 h``; for civil time zones within an hour
+        or so of mean solar time this is the civil date.  Values with a time of day are
+        truncated to their date — for timezone-aware ``datetime``/pandas values, their own
+        (local) calendar date; naive values are accepted here since a date is not an instant.
     latitude : array_like
         Geodetic latitude [deg], [−90, 90].
     longitude : array_like
@@ -866,7 +980,7 @@ def sunrise_sunset(dates, latitude, longitude, *, horizon=HORIZON_APPARENT, delt
     horizon : array_like
         Altitude of the Sun's centre at rise/set [rad]; default :data:`HORIZON_APPARENT`
         (−0.8333°: standard refraction plus semi-diameter).  Use e.g. ``np.deg2rad(-6)`` for
-        civil twilight.  Must be in (−π/2, π/2).
+        civil twilight.  In [−π/2, π/2].
     delta_t : array_like or None
         TT − UT [s]; ``None`` uses :func:`default_delta_t`.
 
@@ -893,10 +1007,9 @@ def sunrise_sunset(dates, latitude, longitude, *, horizon=HORIZON_APPARENT, delt
     >>> str(r.sunrise + np.timedelta64(8, "h"))[:16], str(r.sunset + np.timedelta64(8, "h"))[:16]
     ('2011-06-15T07:00', '2011-06-15T19:12')
     """
-    t_us = _as_datetime64(dates, "dates")
-    if t_us.ndim == 0 and np.isnat(t_us):
+    days = _as_dates(dates, "dates").astype("datetime64[us]")
+    if days.ndim == 0 and np.isnat(days):
         raise ValueError("dates must not be NaT")
-    days = t_us.astype("datetime64[D]").astype("datetime64[us]")
     d_date = _days_since_j2000(days, "dates")  # 00:00 UTC of the date
     lat = _checked(latitude, "latitude", -90.0, 90.0, "deg")
     lon = _checked(longitude, "longitude", -360.0, 360.0, "deg")

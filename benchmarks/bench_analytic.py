@@ -109,15 +109,42 @@ def _rate(fn, *args, repeat=5):
 def main() -> None:  # pragma: no cover - manual table
     import os
 
-    print(f"cores: {os.cpu_count()}  (shared machine: numbers are noisy)")
+    print(f"cores: {os.cpu_count()}  (shared machine: numbers are noisy; best of 7)")
     print(f"{'n':>8} {'baseline/s':>12} {'f64/s':>12} {'f32/s':>12} {'f64 x':>7} {'f32 x':>7}")
     for n in SIZES:
         v64, v32 = directions(n), directions(n, np.float32)
-        tb = _rate(baseline_rgb, v64, SUN, TURBIDITY)
-        t64 = _rate(ac.preetham_sky_rgb, v64, SUN, TURBIDITY)
-        t32 = _rate(ac.preetham_sky_rgb, v32, SUN, TURBIDITY)
+        tb = _rate(baseline_rgb, v64, SUN, TURBIDITY, repeat=7)
+        t64 = _rate(ac.preetham_sky_rgb, v64, SUN, TURBIDITY, repeat=7)
+        t32 = _rate(ac.preetham_sky_rgb, v32, SUN, TURBIDITY, repeat=7)
         print(f"{n:>8.0e} {n / tb:>12.3g} {n / t64:>12.3g} {n / t32:>12.3g} {tb / t64:>7.1f} {tb / t32:>7.1f}")
+    H, W = 1080, 1920
+    rng = np.random.default_rng(0)
+    L0 = rng.uniform(0.0, 2e3, (H, W, 3)).astype(np.float32)
+    depth = rng.uniform(0.0, 3e4, (H, W))
+    t = _rate(ac.aerial_perspective, L0, depth, np.array([0.0, 1.0, 0.05]), SUN, repeat=3)
+    print(f"aerial_perspective 1920x1080: {t * 1e3:.0f} ms ({H * W / t:.3g} pixels/s)")
 
 
 if __name__ == "__main__":  # pragma: no cover
     main()
+
+
+# ------------------------------------------------------------------------------------------------
+# Hoffman–Preetham aerial perspective on a depth buffer (1920 x 1080, one view per pixel)
+# ------------------------------------------------------------------------------------------------
+@pytest.fixture(scope="module")
+def depth_buffer():
+    H, W = 1080, 1920
+    rng = np.random.default_rng(0)
+    depth = rng.uniform(0.0, 3e4, (H, W))
+    L0 = rng.uniform(0.0, 2e3, (H, W, 3)).astype(np.float32)
+    az = np.linspace(-0.6, 0.6, W)[None, :]
+    el = np.linspace(0.3, -0.3, H)[:, None]
+    views = np.stack(np.broadcast_arrays(np.sin(az) * np.cos(el), np.cos(az) * np.cos(el), np.sin(el)), axis=-1)
+    return L0, depth, views.astype(np.float32)
+
+
+def test_bench_aerial_perspective_1080p(benchmark, depth_buffer):
+    L0, depth, views = depth_buffer
+    out = benchmark.pedantic(ac.aerial_perspective, args=(L0, depth, views, SUN), rounds=1, iterations=1)
+    assert out.shape == L0.shape and out.dtype == np.float32

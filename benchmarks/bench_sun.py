@@ -84,3 +84,36 @@ def test_sunrise_sunset_year_by_1000_sites(benchmark):
     benchmark.group = "sunrise_sunset 366x1000"
     res = benchmark.pedantic(ac.sunrise_sunset, args=(dates[:, None], lat, lon), rounds=3)
     assert res.sunrise.shape == (366, 1000)
+
+
+def _interleaved(repeats: int = 5) -> None:
+    """Ratios robust to a busy machine: alternate the implementations, keep each one's best."""
+    import time
+
+    impls = {
+        "atmoscatter spa": lambda t, idx: ac.sun_position(t, LAT, LON),
+        "pvlib nrel_numpy": lambda t, idx: pvlib.solarposition.spa_python(
+            idx, LAT, LON, how="numpy", delta_t=None
+        ),
+        "pvlib ephemeris": lambda t, idx: pvlib.solarposition.ephemeris(idx, LAT, LON),
+    }
+    print("case            " + "".join(f"{k:>20s}" for k in impls) + "   nrel/ours  eph/ours")
+    for kind, n in CASES:
+        t = _times(kind, n)
+        idx = pd.DatetimeIndex(t).tz_localize("UTC")
+        best = dict.fromkeys(impls, np.inf)
+        for _ in range(repeats if n <= 100_000 else max(2, repeats // 2)):
+            for name, fn in impls.items():
+                t0 = time.perf_counter()
+                fn(t, idx)
+                best[name] = min(best[name], time.perf_counter() - t0)
+        ours = best["atmoscatter spa"]
+        print(
+            f"{kind:6s} n={n:.0e}  "
+            + "".join(f"{1e3 * v:17.1f} ms" for v in best.values())
+            + f"   {best['pvlib nrel_numpy'] / ours:8.1f}x {best['pvlib ephemeris'] / ours:8.2f}x"
+        )
+
+
+if __name__ == "__main__":  # PYTHONPATH=. python benchmarks/bench_sun.py
+    _interleaved()

@@ -329,3 +329,28 @@ def test_aerial_perspective_depth_buffer_shapes():
     # distant objects converge to the airlight: monotone approach for a dark object
     dark = ac.aerial_perspective(np.zeros((H, W, 3)), depth, [0.0, 1.0, 0.05], SUN)
     assert np.all(np.diff(dark.reshape(-1, 3), axis=0) >= 0)
+
+
+def test_chunked_evaluation_matches_small_calls():
+    from atmoscatter.sky import aerial
+
+    n = aerial._CHUNK * 2 + 3
+    rng = np.random.default_rng(7)
+    d = rng.uniform(0, 2e4, n)
+    L0 = rng.uniform(0, 1e3, (n, 3))
+    whole = ac.aerial_perspective(L0, d, [0.2, 0.9, 0.1], SUN)
+    idx = [0, 5, aerial._CHUNK - 1, aerial._CHUNK, n - 1]
+    parts = ac.aerial_perspective(L0[idx], d[idx], [0.2, 0.9, 0.1], SUN)
+    np.testing.assert_allclose(whole[idx], parts, rtol=1e-15)
+    v = rng.normal(size=(n, 3))
+    sky = ac.hoffman_preetham_sky(v, SUN)
+    np.testing.assert_allclose(sky[idx], ac.hoffman_preetham_sky(v[idx], SUN), rtol=1e-15)
+
+
+def test_scalar_shapes():
+    out = ac.aerial_perspective([10.0, 20.0, 30.0], 500.0, [0.0, 1.0, 0.0], SUN)
+    assert out.shape == (3,)
+    ref = ac.aerial_perspective(np.array([[10.0, 20.0, 30.0]]), np.array([500.0]), [0.0, 1.0, 0.0], SUN)
+    np.testing.assert_allclose(out, ref[0], rtol=1e-15)
+    assert ac.hoffman_preetham_sky([0.0, 0.0, 1.0], SUN).shape == (3,)
+    assert np.ndim(ac.one_minus_exp_ratio(0.5)) == 0

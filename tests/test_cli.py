@@ -139,3 +139,16 @@ def test_readme_command_renders_default_sky(tmp_path):
     assert img.header["model"] == "preetham" and img.header["time"].startswith("2024-06-21")
     sky = img.rgb[:32]
     assert np.all(np.isfinite(sky)) and sky.min() > 0
+
+
+def test_batch_on_a_dask_scheduler_address(tmp_path, capsys):
+    distributed = pytest.importorskip("dask.distributed")
+    csv = tmp_path / "s.csv"
+    csv.write_text("name,model,sun_elevation_deg,width,height\na,toy,30,16,8\nb,toy,50,16,8\n")
+    with distributed.LocalCluster(processes=False, n_workers=1, threads_per_worker=2,
+                                  dashboard_address=None) as cluster:
+        code = main(["batch", str(csv), "-o", str(tmp_path / "out"), "--quiet",
+                     "--scheduler", cluster.scheduler_address])
+    assert code == 0
+    assert "2 rendered" in capsys.readouterr().out
+    assert read_exr(tmp_path / "out" / "b.exr").header["sun_elevation_deg"] == "50.0"

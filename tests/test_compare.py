@@ -292,6 +292,11 @@ class TestReadSkyMap:
             read_sky_map(p3)
         with pytest.raises(ValueError, match="twice as wide"):
             read_sky_map(p3, layout="latlong")
+        # the envmap attribute wins over the aspect ratio
+        p4 = tmp_path / "cube_attr.exr"
+        _write_exr(p4, {"Y": np.ones((8, 16))}, "cube")
+        with pytest.raises(ValueError, match="six square faces"):
+            read_sky_map(p4)
         with pytest.raises(ValueError, match="rotate_deg"):
             read_sky_map(p, rotate_deg=10.0)
         with pytest.raises(ValueError, match="flip"):
@@ -362,3 +367,90 @@ def test_compare_exr_against_given_reference(tmp_path):
         compare_exr(small, reference=reference)
     with pytest.raises(ValueError, match="sun_exclusion_deg"):
         compare_exr(p, reference=reference, sun_exclusion_deg=-1)
+
+
+# --------------------------------------------------------------------------------------
+# end to end: our renderer's files and the ``atmoscatter compare`` command
+# --------------------------------------------------------------------------------------
+SCENE_TOML = """model = "preetham"
+turbidity = 3.0
+sun_elevation_deg = 40.0
+sun_azimuth_deg = 150.0
+"""
+
+
+def _scene_file(tmp_path):
+    p = tmp_path / "scene.toml"
+    p.write_text(SCENE_TOML)
+    return p
+
+
+@pytest.mark.parametrize("projection,width,height", [("latlong", 32, 16), ("cubemap", 8, 8),
+                                                     ("fisheye", 16, 16)])
+def test_compare_our_own_render_is_exact(tmp_path, projection, width, height):
+    import atmoscatter as ac
+
+    scene = ac.Scene(model="preetham", turbidity=3.0, sun_elevation_deg=40.0,
+                     sun_azimuth_deg=150.0, projection=projection, width=width, height=height,
+                     output="xyz")
+    path = ac.write_exr(tmp_path / "ours.exr", ac.render(scene))
+    r = compare_exr(path, scene)
+    assert r.info["layout"] == projection
+    assert r.pixels_compared > 0
+    # float32 EXR round trip only
+    assert r.luminance_relative_error["max"] < 1e-6
+    assert r.scale == pytest.approx(1.0, abs=1e-6)
+    assert r.delta_e_2000["max"] < 1e-3
+
+
+def test_cli_compare_writes_summary_and_recovers_scale(tmp_path):
+    import atmoscatter as ac
+    from atmoscatter.cli import main
+
+    scene = ac.Scene(model="preetham", turbidity=3.0, sun_elevation_deg=40.0,
+                     sun_azimuth_deg=150.0, projection="latlong", width=32, height=16)
+    rgb = np.asarray(ac.render(scene).rgb, dtype=np.float64) * 0.01
+    rgb[3:5, 8:14] *= 1.25  # local perturbation in the sky
+    other = tmp_path / "other.exr"
+    # stored with north at the left edge instead of the centre: --rotate 180 undoes it
+    stored = np.roll(rgb, 16, axis=1)
+    _write_exr(other, {c: stored[..., i] for i, c in enumerate("RGB")}, "latlong")
+    out = tmp_path / "report"
+    status = main(["compare", str(other), "--scene", str(_scene_file(tmp_path)), "--rotate",
+                   "180", "-o", str(out)])
+    assert status == 0
+    s = json.loads((out / "summary.json").read_text())
+    assert s["scale"] == pytest.approx(100.0, rel=1e-5)
+    # without rescaling every sky pixel is 99 % too dark (the patch 98.75 %)
+    assert s["luminance_relative_error"]["median"] == pytest.approx(0.99, rel=1e-5)
+    assert s["luminance_relative_error"]["max"] == pytest.approx(0.99, rel=1e-5)
+    assert s["scaled_luminance_relative_error"]["max"] == pytest.approx(0.25, rel=1e-4)
+    assert s["scaled_luminance_relative_error"]["median"] < 1e-5
+    assert s["layout"] == "latlong" and s["scene"]["model"] == "preetham"
+    assert (out / "error_map.png").exists() and (out / "delta_e_map.png").exists()
+
+
+def test_cli_compare_uses_scene_in_header_and_reports_errors(tmp_path, capsys):
+    import atmoscatter as ac
+    from atmoscatter.cli import main
+
+    scene = ac.Scene(model="preetham", sun_elevation_deg=30.0, sun_azimuth_deg=90.0,
+                     projection="latlong", width=16, height=8)
+    path = ac.write_exr(tmp_path / "ours.exr", ac.render(scene))
+    assert main(["compare", str(path)]) == 0  # scene read back from the EXR header
+    assert "best-fit scale" in capsys.readouterr().out
+    # a file without a recorded scene and no --scene
+    bare = tmp_path / "bare.exr"
+    _write_exr(bare, {"Y": np.ones((8, 16))}, "latlong")
+    assert main(["compare", str(bare)]) == 2
+    err = capsys.readouterr().err
+    assert "pass --scene" in err and err.count("\n") == 1
+    # not an EXR
+    junk = tmp_path / "junk.exr"
+    junk.write_text("nope")
+    assert main(["compare", str(junk), "--scene", str(_scene_file(tmp_path))]) == 2
+    assert "not a readable OpenEXR file" in capsys.readouterr().err
+    # wrong shape for the declared layout
+    assert main(["compare", str(bare), "--scene", str(_scene_file(tmp_path)),
+                 "--layout", "cubemap"]) == 2
+    assert "six square faces" in capsys.readouterr().err

@@ -243,7 +243,11 @@ class TestArrayDirections:
         d[..., 2] = 1
         ds = ArrayDirections(d)
         assert ds.shape == (4, 5) and ds.size == 20
-        with pytest.raises(ValueError, match="unit vectors"):
-            ArrayDirections(np.ones((3, 3)))
+        with pytest.raises(ValueError, match=r"unit vectors.*at index 0"):
+            ArrayDirections(np.ones((3, 3))).directions(0, 3)
+        bad = np.tile([0.0, 0.0, 1.0], (4, 1))
+        bad[2, 0] = np.nan
+        with pytest.raises(ValueError, match="at index 2"):
+            ArrayDirections(bad).directions(0, 4)
         with pytest.raises(ValueError, match=r"shape \(\.\.\., 3\)"):
             ArrayDirections(np.ones((3, 2)))

@@ -262,3 +262,12 @@ class TestPreview:
         with pytest.raises(ValueError, match="dome mesh has no image"):
             write_preview(ac.render(scene(projection="dome", width=8, height=3)),
                           tmp_path / "d.png")
+
+
+def test_written_files_get_normal_permissions(tmp_path):
+    import stat
+
+    p = write_exr(tmp_path / "perm.exr", ac.render(scene()))
+    mask = os.umask(0)
+    os.umask(mask)
+    assert stat.S_IMODE(os.stat(p).st_mode) == 0o666 & ~mask

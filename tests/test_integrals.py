@@ -357,3 +357,21 @@ class TestSHIrradiance:
                     / (7 * np.pi / 9) - 1) for o in (2, 4, 8)]
         assert errs[0] < 1e-2 and errs[1] < 2e-3 and errs[2] < 5e-4
         assert errs[0] > errs[1] > errs[2]
+
+
+def test_rendered_sky_image_is_accepted():
+    # a rendered lat-long map (pixel solid angles, midpoint rule) against the Gauss–Legendre
+    # integral of the same model as a callable
+    pytest.importorskip("atmoscatter.render")
+    sun = np.array([0.0, -np.cos(np.radians(50)), np.sin(np.radians(50))])
+    img = ac.render(ac.Scene(model="preetham", turbidity=3.0, sun_elevation_deg=50.0,
+                             sun_azimuth_deg=180.0, projection="latlong", width=256,
+                             height=128))
+    exact = diffuse_irradiance(lambda d: ac.preetham_sky(d, sun, 3.0)[..., 1], n_theta=96)
+    assert diffuse_irradiance(img) == pytest.approx(exact, rel=1e-3)  # measured 7e-5
+    c_img = sh_project(img, 2, domain="upper")
+    c_ref = sh_project(lambda d: ac.preetham_sky(d, sun, 3.0)[..., 1], 2, domain="upper",
+                       n_theta=96)
+    np.testing.assert_allclose(c_img, c_ref, rtol=0, atol=1e-2 * abs(c_ref[0]))
+    with pytest.raises(ValueError, match="SkyImage"):
+        diffuse_irradiance(img, directions=np.zeros((1, 3)), weights=np.ones(1))

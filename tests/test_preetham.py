@@ -195,6 +195,29 @@ def test_spectral_shape_is_colour_science_D_series():
     np.testing.assert_allclose(Y, Yxy[:, 0], rtol=2e-3)
 
 
+def test_spectral_negative_values_warn_or_clip():
+    """Low sun: chromaticities off the daylight locus make S_D negative in the violet."""
+    sun = direction(math.radians(88), 0.0)
+    v = random_directions(400, seed=21, upper=True)
+    with pytest.warns(ac.PreethamValidityWarning, match="negative"):
+        raw = ac.preetham_sky_spectral(v, sun, 2.0)
+    assert raw.min() < 0
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        clipped = ac.preetham_sky_spectral(v, sun, 2.0, clip_negative=True)
+    assert clipped.min() >= 0.0
+    wl = ac.sky.preetham.DEFAULT_WAVELENGTHS
+    Y = ac.preetham_sky_Yxy(v, sun, 2.0)[:, 0]
+    np.testing.assert_allclose(ac.spectral_to_XYZ(clipped, wl)[:, 1], Y, rtol=1e-12)
+    untouched = raw.min(axis=1) >= 0
+    assert untouched.any()
+    np.testing.assert_array_equal(clipped[untouched], raw[untouched])
+    # a high sun in the fit range gives non-negative spectra and no warning
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert ac.preetham_sky_spectral(v, direction(0.5, 0.0), 4.0).min() >= 0
+
+
 def test_spectral_bad_wavelengths_and_option():
     sun = direction(0.5, 0.0)
     with pytest.raises(ValueError, match="wavelengths"):
@@ -318,7 +341,7 @@ def test_nan_and_non_unit_directions(backend):
     np.testing.assert_allclose(ac.preetham_sky(3.0 * v[[0, 1, 4]], sun, 3.0, backend=backend), got[[0, 1, 4]], rtol=1e-14)
 
 
-@pytest.mark.parametrize("n", [2000, pm._PARALLEL_MIN + 5])  # serial and parallel kernels
+@pytest.mark.parametrize("n", [2000, pm._PARALLEL_MIN + 5])  # one thread / thread pool
 @pytest.mark.parametrize("T,tsd", [(2.0, 0.0), (3.0, 70.0), (10.0, 89.9), (6.0, 90.0)])
 @pytest.mark.parametrize("backend", BACKENDS)
 def test_float32_within_tolerance_of_float64(backend, T, tsd, n):
@@ -367,7 +390,7 @@ def test_float32_nan_and_degenerate_directions(n):
 def test_float64_parallel_and_serial_kernels_agree():
     sun = direction(0.6, 1.0)
     v = random_directions(pm._PARALLEL_MIN + 5, seed=13)
-    whole = ac.preetham_sky(v, sun, 4.0)  # parallel kernel
+    whole = ac.preetham_sky(v, sun, 4.0)  # split over the thread pool
     part = ac.preetham_sky(v[:1000], sun, 4.0)  # serial kernel
     np.testing.assert_array_equal(whole[:1000], part)
 
@@ -383,6 +406,31 @@ def test_shapes(backend):
     assert ac.preetham_sky(np.empty((0, 3)), sun, 3.0, backend=backend).shape == (0, 3)
     assert ac.preetham_sky(np.zeros((2, 0, 3)), sun, 3.0, backend=backend).shape == (2, 0, 3)
     assert ac.preetham_sky([[0, 0, 1]], sun, 3, backend=backend).dtype == np.float64  # ints in
+
+
+def test_threads_and_forked_processes_get_consistent_results():
+    """Calls from worker threads run in that thread (GIL released); a process forked after
+    the thread pool started must not hang and gives the same values."""
+    import multiprocessing as mp
+    from concurrent.futures import ThreadPoolExecutor
+
+    sun = direction(0.6, 1.0)
+    v = random_directions(pm._PARALLEL_MIN + 100, seed=14, dtype=np.float32)
+    ref = ac.preetham_sky_rgb(v, sun, 3.0)  # main thread: thread pool
+    with ThreadPoolExecutor(max_workers=2) as ex:
+        outs = list(ex.map(lambda _: ac.preetham_sky_rgb(v, sun, 3.0), range(2)))
+    for out in outs:
+        np.testing.assert_array_equal(out, ref)
+    if "fork" in mp.get_all_start_methods():
+        pool = mp.get_context("fork").Pool(1)
+        try:
+            child = pool.apply_async(ac.preetham_sky_rgb, (v, sun, 3.0)).get(timeout=120)
+        except BaseException:
+            pool.terminate()  # a hung child must not hang the test run
+            raise
+        pool.close()
+        pool.join()
+        np.testing.assert_array_equal(child, ref)
 
 
 def test_large_batch_numpy_path_is_chunked_and_equal():

@@ -222,6 +222,25 @@ def test_large_chunked_batch_matches_small():
     assert np.allclose(big.zenith[-50:], small.zenith, atol=1e-12)
 
 
+def test_wide_trailing_axis_is_blocked(monkeypatch):
+    """Blocks stay bounded when one row is larger than the block size (shape (2, n))."""
+    monkeypatch.setattr(S, "_CHUNK", 64)
+    t = np.datetime64("2022-01-01") + np.arange(2) * np.timedelta64(5, "h")
+    lat = np.linspace(-80, 80, 1000)
+    wide = S.sun_position(t[:, None], lat, 30.0)
+    assert [len(list(S._blocks((2, 1000), 64)))] == [2 * 16]
+    monkeypatch.setattr(S, "_CHUNK", 1 << 15)
+    ref = S.sun_position(t[:, None], lat, 30.0)
+    assert np.array_equal(wide.zenith, ref.zenith) and np.array_equal(wide.direction, ref.direction)
+
+
+def test_empty_input():
+    sp = S.sun_position(np.array([], dtype="datetime64[s]"), 10.0, 10.0)
+    assert sp.zenith.shape == (0,) and sp.direction.shape == (0, 3)
+    r = S.sunrise_sunset(np.array([], dtype="datetime64[D]"), 10.0, 10.0)
+    assert r.sunrise.shape == (0,)
+
+
 def test_float32_in_float32_out():
     t = np.datetime64("2022-05-01") + np.arange(10) * np.timedelta64(1, "h")
     sp = S.sun_position(t, np.float32(40.0), np.full(10, -3.0, dtype=np.float32))
@@ -461,6 +480,26 @@ def test_polar_day_and_night():
         assert not np.any(np.isnat(r.noon))
         assert r.day_length[summer] == np.timedelta64(24, "h")
         assert r.day_length[1 - summer] == np.timedelta64(0, "h")
+
+
+def test_sunrise_sunset_date_inputs_agree():
+    """A date names a local day: aware local midnight keeps its own date (not the UTC one)."""
+    ref = S.sunrise_sunset(np.datetime64("2011-01-01"), 1.28, 103.45)
+    tz8 = dt.timezone(dt.timedelta(hours=8))
+    for d in (
+        dt.date(2011, 1, 1),
+        "2011-01-01",
+        dt.datetime(2011, 1, 1, 0, 0, tzinfo=tz8),
+        dt.datetime(2011, 1, 1, 23, 0),
+        pd.Timestamp("2011-01-01 00:00", tz="Asia/Kuala_Lumpur"),
+        np.datetime64("2011-01-01T18:00"),
+    ):
+        assert S.sunrise_sunset(d, 1.28, 103.45).sunrise == ref.sunrise, d
+    idx = pd.date_range("2011-01-01", periods=3, freq="D", tz="Asia/Kuala_Lumpur")
+    many = S.sunrise_sunset(idx, 1.28, 103.45)
+    assert many.sunrise[0] == ref.sunrise and many.sunrise.shape == (3,)
+    series = S.sun_position(pd.Series(idx), 1.28, 103.45)
+    assert series.zenith.shape == (3,)
 
 
 def test_high_latitude_and_twilight():

@@ -60,6 +60,9 @@ from ..scattering import rayleigh_scattering
 from ..solar import extraterrestrial_irradiance
 from .preetham import _sun, _views
 
+#: Directions per chunk of the NumPy evaluation (bounded memory).
+_CHUNK = 1 << 16
+
 __all__ = [
     "HOFFMAN_PREETHAM_WAVELENGTHS",
     "AIR_ZENITH_OPTICAL_LENGTH",
@@ -489,17 +492,21 @@ def hoffman_preetham_sky(
     E = hoffman_preetham_sunlight(
         ts, b_ea, b_eh, sun_irradiance=sun_irradiance, air_zenith_length=la, haze_zenith_length=lh
     )
-    vh = _unit(v.astype(np.float64))
-    nan = np.isnan(vh).any(axis=-1)
-    vz = np.where(nan, 1.0, vh[..., 2])
-    theta_v = np.arccos(np.clip(vz, -1.0, 1.0))
-    s_air = la * np.asarray(relative_optical_length(theta_v))
-    s_haze = s_air * (lh / la)
-    mu = np.where(nan, 0.0, np.clip(vh @ sun, -1.0, 1.0))
-    air_t, haze_t = _phase_terms(mu, b_sa, b_sh, gg)
-    L = E * _two_shell(s_air, s_haze, air_t, haze_t, b_ea, b_eh)
-    L = np.where(nan[..., None], np.nan, L)
-    return L.astype(v.dtype, copy=False)
+    flat = v.reshape(-1, 3)
+    out = np.empty(flat.shape, dtype=v.dtype)
+    for start in range(0, flat.shape[0], _CHUNK):  # bounded memory
+        sl = slice(start, start + _CHUNK)
+        vh = _unit(flat[sl].astype(np.float64))
+        nan = np.isnan(vh).any(axis=-1)
+        vz = np.where(nan, 1.0, vh[:, 2])
+        theta_v = np.arccos(np.clip(vz, -1.0, 1.0))
+        s_air = la * np.asarray(relative_optical_length(theta_v))
+        s_haze = s_air * (lh / la)
+        mu = np.where(nan, 0.0, np.clip(vh @ sun, -1.0, 1.0))
+        air_t, haze_t = _phase_terms(mu, b_sa, b_sh, gg)
+        L = E * _two_shell(s_air, s_haze, air_t, haze_t, b_ea, b_eh)
+        out[sl] = np.where(nan[:, None], np.nan, L)
+    return out.reshape(v.shape)
 
 
 _AP_OPTIONS = ("haze", "sun_irradiance", "sun_extinction", "air_scattering", "haze_scattering",
@@ -560,16 +567,33 @@ def aerial_perspective(L0, distance, view_direction, sun_direction, **options):
         E = solar_illuminance_rgb() if options.get("sun_irradiance") is None else as_float_array(
             options["sun_irradiance"], "sun_irradiance"
         )
+    b_ex = b_ea + b_eh
+    shape = np.broadcast_shapes(L0a.shape[:-1], d.shape, v.shape[:-1])
+    L0b = np.broadcast_to(L0a, shape + (3,))
+    db = np.broadcast_to(d, shape)
+    vb = np.broadcast_to(v, shape + (3,))
+    out = np.empty(shape + (3,), dtype=np.float32 if L0a.dtype == np.float32 else np.float64)
+    if len(shape) == 0:
+        out[...] = _aerial_chunk(L0b, db, vb, sun, E, b_sa, b_sh, gg, b_ex)
+        return out
+    # bounded memory: evaluate slabs along the first axis (rows of a depth buffer)
+    step = max(1, _CHUNK // max(1, math.prod(shape[1:])))
+    for start in range(0, shape[0], step):
+        sl = slice(start, start + step)
+        out[sl] = _aerial_chunk(L0b[sl], db[sl], vb[sl], sun, E, b_sa, b_sh, gg, b_ex)
+    return out
+
+
+def _aerial_chunk(L0, d, v, sun, E, b_sa, b_sh, g, b_ex):
+    """``F_ex L0 + L_in`` for one slab (float64 work arrays)."""
     vh = _unit(v.astype(np.float64))
     bad_dir = np.isnan(vh).any(axis=-1)  # NaN or zero-length view directions
     mu = np.where(bad_dir, 0.0, np.clip(vh @ sun, -1.0, 1.0))
-    air_t, haze_t = _phase_terms(mu, b_sa, b_sh, gg)
-    b_ex = b_ea + b_eh
+    air_t, haze_t = _phase_terms(mu, b_sa, b_sh, g)
     dd = d.astype(np.float64)[..., None]
     F = np.exp(-_mul(b_ex, dd))
     Lin = E * (air_t + haze_t) * path_integral(b_ex, dd)
-    out = F * L0a + Lin
+    out = F * L0 + Lin
     if np.any(bad_dir):
         out = np.where(bad_dir[..., None], np.nan, out)
-    out = np.where((d == 0)[..., None], L0a, out)  # exactly L0 at distance 0
-    return out.astype(np.float32 if L0a.dtype == np.float32 else np.float64, copy=False)
+    return np.where((d == 0)[..., None], L0, out)  # exactly L0 at distance 0
