@@ -546,6 +546,40 @@ def test_wavelength_subset():
     v = np.array([_dir(z, 30) for z in (0, 60, 85)])
     full = single_scattering(atm, v, _sun(20))
     sub = single_scattering(atm, v, _sun(20), wavelengths=[440.0, 680.0])
-    np.testing.assert_allclose(sub, full[:, [2, 0]], rtol=1e-12)
+    # the panel layout depends on the atmosphere's extinction (optical-depth levels), so
+    # the subset agrees to the quadrature accuracy (measured ~3e-8), not bit for bit
+    np.testing.assert_allclose(sub, full[:, [2, 0]], rtol=1e-6)
     with pytest.raises(ValueError, match="wavelengths"):
         single_scattering(atm, v, _sun(20), wavelengths=[500.0])
+
+
+def test_random_atmospheres_and_geometries_default_within_1e3():
+    """Seeded sweep: random planets (3e5-3e7 m), thicknesses, coefficients (1e-3-300x
+    Earth's), phase asymmetries, optional ozone-like tent absorber, observers from the
+    ground to space, sun from 12 deg below the horizon to the zenith."""
+    rng = np.random.default_rng(42)
+    for _ in range(25):
+        R = 10 ** rng.uniform(5.5, 7.5)
+        top = R + rng.uniform(2e4, 1.5e5)
+        sc = 10 ** rng.uniform(-3, 2.5)
+        cons = [
+            ac.Constituent("air", tuple(np.array([5.8e-6, 1.36e-5, 3.31e-5]) * sc), 0.0,
+                           ac.ExponentialProfile(rng.uniform(3e3, 1.2e4)), ac.RayleighPhase()),
+            ac.Constituent("haze", tuple(np.full(3, 4e-6 * sc * rng.uniform(0.1, 10))),
+                           tuple(np.full(3, 4e-7 * sc)), ac.ExponentialProfile(rng.uniform(3e2, 3e3)),
+                           ac.HenyeyGreensteinPhase(rng.uniform(0.0, 0.95))),
+        ]
+        if rng.random() < 0.5:
+            k = (top - R) / 6e4
+            cons.append(ac.Constituent("oz", 0.0, tuple(np.array([6e-7, 1.9e-6, 1e-7]) * rng.uniform(0.1, 10)),
+                                       ac.TentProfile(25e3 * k, 15e3 * k), ac.RayleighPhase()))
+        atm = ac.Atmosphere(R, top, (680.0, 550.0, 440.0), tuple(cons))
+        alt = rng.choice([0.0, rng.uniform(0, top - R), top - R, rng.uniform(top - R, 5e5)])
+        s = _sun(rng.uniform(-12, 90), rng.uniform(0, 360))
+        v = rng.normal(size=(20, 3))
+        ref = single_scattering(atm, v, s, altitude=alt, method="reference", rtol=1e-7)
+        got = single_scattering(atm, v, s, altitude=alt)
+        _check_sane(got)
+        big = ref > 1e-15  # far below any visible sky (daylight ~1e-2, deep twilight ~1e-9)
+        assert np.all(got[ref == 0] == 0)
+        assert _max_rel(got[big], ref[big]) < 1e-3

@@ -209,11 +209,11 @@ def _extinction_scale(atm: qd.PreparedAtmosphere, p2: np.ndarray, sigma: np.ndar
 def _graded_view_bounds(batch: _Batch, m: int) -> np.ndarray:
     """Panel boundaries along the view ray (perigee coordinates), sorted.
 
-    Three geometric gradings are merged: from the ray's lowest point (both ways), from
-    the start of the path (the observer or the entry point) and from the exit of the
-    planet's shadow.  Each starts with a panel no longer than the local density scale
-    and the local extinction length ``1/β_e``.  Shadow edges and profile breakpoints
-    are panel boundaries too.
+    Geometric gradings are merged: from the ray's lowest point (both ways), from the start
+    of the path (the observer or the entry point), forward from the exit of the planet's
+    shadow and backward from its entry.  Each starts with a panel no longer than the local
+    density scale and the local extinction length ``1/β_e``.  Shadow edges, profile
+    breakpoints and the optical-depth levels of the atmosphere are panel boundaries too.
     """
     atm = batch.atm
     sa, sb, p2 = batch.sa, batch.sb, batch.p2
@@ -224,12 +224,19 @@ def _graded_view_bounds(batch: _Batch, m: int) -> np.ndarray:
     sh_hi = hi_t + batch.s0
     has_exit = np.isfinite(sh_hi) & (sh_hi > sa) & (sh_hi < sb) & (sh_lo < sh_hi)
     e = np.where(has_exit, sh_hi, sb)
+    has_entry = np.isfinite(sh_lo) & (sh_lo > sa) & (sh_lo < sb) & (sh_lo < sh_hi)
+    f = np.where(has_entry, sh_lo, sa)
 
     def scale(x):
         return np.minimum(qd.local_scale(hmin, x, p2), _extinction_scale(atm, p2, x))
 
-    ell_c, ell_a, ell_e = scale(c), scale(sa), scale(e)
-    ratios = [np.maximum(sb - c, c - sa) / ell_c, (sb - sa) / ell_a, (sb - e) / ell_e]
+    ell_c, ell_a, ell_e, ell_f = scale(c), scale(sa), scale(e), scale(f)
+    ratios = [
+        np.maximum(sb - c, c - sa) / ell_c,
+        (sb - sa) / ell_a,
+        (sb - e) / ell_e,
+        (f - sa) / ell_f,
+    ]
     span = max(float(np.max(r)) for r in ratios) if sa.size else 0.0
     k = qd.n_geometric_panels(span, m)
     d = qd.geometric_offsets(m, k)[1:]
@@ -238,6 +245,7 @@ def _graded_view_bounds(batch: _Batch, m: int) -> np.ndarray:
         c[:, None] - ell_c[:, None] * d,
         sa[:, None] + ell_a[:, None] * d,
         e[:, None] + ell_e[:, None] * d,
+        f[:, None] - ell_f[:, None] * d,
         np.stack([sh_lo, sh_hi], axis=-1),
     ]
     bps = np.unique(np.concatenate([b for b in atm.breakpoints] + [np.zeros(0)]))
@@ -249,6 +257,18 @@ def _graded_view_bounds(batch: _Batch, m: int) -> np.ndarray:
         # has a derivative singularity: make those points panel boundaries as well
         for radius in rb:
             lo_b, hi_b = qd.shadow_interval(batch.r0, batch.v, batch.s, float(radius))
+            cuts.append(np.stack([lo_b + batch.s0, hi_b + batch.s0], axis=-1))
+    if atm.tau_levels is not None and atm.tau_levels.size:
+        rl = atm.planet_radius + atm.tau_levels
+        sq = np.sqrt(np.maximum(rl * rl - p2[:, None], 0.0))
+        cuts += [sq, -sq]
+    if atm.grazing_levels is not None and atm.grazing_levels.size and np.any(
+        np.isfinite(sh_lo) | np.isfinite(sh_hi)
+    ):
+        # near the shadow the sun's transmittance changes as fast as the optical depth of
+        # the sun ray grazing at its perigee: split where the perigee crosses those levels
+        for h in atm.grazing_levels:
+            lo_b, hi_b = qd.shadow_interval(batch.r0, batch.v, batch.s, atm.planet_radius + h)
             cuts.append(np.stack([lo_b + batch.s0, hi_b + batch.s0], axis=-1))
     bounds = np.concatenate(cuts, axis=-1)
     bounds = np.where(np.isfinite(bounds), bounds, sa[:, None])
