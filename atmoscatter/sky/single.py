@@ -263,7 +263,7 @@ def _graded_view_bounds(batch: _Batch, m: int) -> np.ndarray:
         sq = np.sqrt(np.maximum(rl * rl - p2[:, None], 0.0))
         cuts += [sq, -sq]
     if atm.grazing_levels is not None and atm.grazing_levels.size and np.any(
-        np.isfinite(sh_lo) | np.isfinite(sh_hi)
+        has_exit | has_entry
     ):
         # near the shadow the sun's transmittance changes as fast as the optical depth of
         # the sun ray grazing at its perigee: split where the perigee crosses those levels
