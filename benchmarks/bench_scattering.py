@@ -77,3 +77,23 @@ def test_multiple_scattering_large_batch(benchmark, earth):
     ac.multiple_scattering(earth, v[:1], _SUN, orders=6)  # build and cache the field
     out = benchmark(ac.multiple_scattering, earth, v, _SUN, orders=6)
     assert np.all(np.isfinite(out)) and np.all(out > 0)
+
+
+def test_peak_memory_bounded(earth):
+    """Peak memory beyond input and output does not grow with the number of directions."""
+    import tracemalloc
+
+    import atmoscatter.sky.single as single_mod
+
+    extra = {}
+    for n in (100_000, 1_000_000):
+        v = _upper_hemisphere(n)
+        single_mod._TABLE_CACHE.clear()
+        tracemalloc.start()
+        out = ac.single_scattering(earth, v, _SUN)
+        peak = tracemalloc.get_traced_memory()[1]
+        tracemalloc.stop()
+        extra[n] = peak - out.nbytes - v.nbytes  # v is copied once (normalised float64)
+        del out
+    assert extra[1_000_000] < 150e6
+    assert extra[1_000_000] < extra[100_000] + 60e6

@@ -567,13 +567,14 @@ def _unit_vectors(value, name: str) -> tuple[np.ndarray, np.ndarray]:
     arr = as_float_array(value, name)
     if arr.ndim < 1 or arr.shape[-1] != 3:
         raise ValueError(f"{name} must have shape (..., 3), got shape {arr.shape}")
-    a = arr.astype(float)
-    norm = np.sqrt(np.sum(a * a, axis=-1))
-    finite = np.all(np.isfinite(a), axis=-1)
+    a = arr.astype(float)  # the one copy of the input (normalised in place)
+    norm = np.atleast_1d(np.sqrt(np.einsum("...i,...i->...", a, a)))
+    finite = np.isfinite(norm)
     if np.any(finite & (norm == 0)):
         raise ValueError(f"{name} must be non-zero vectors (unit vectors are expected)")
-    safe = np.where(finite & (norm > 0), norm, 1.0)
-    return a / safe[..., None], finite
+    norm[~finite | (norm == 0)] = 1.0
+    a /= norm.reshape(a.shape[:-1] + (1,))
+    return a, finite.reshape(a.shape[:-1])
 
 
 def _prepare_inputs(atmosphere, view_directions, sun_direction, altitude):
@@ -761,7 +762,8 @@ def single_scattering(
     lead = v.shape[:-1]
     vf = v.reshape(-1, 3)
     fin = finite.reshape(-1)
-    vf = np.where(fin[:, None], vf, np.array([0.0, 0.0, 1.0]))
+    if not np.all(fin):
+        vf[~fin] = (0.0, 0.0, 1.0)  # placeholder, NaN is restored below
     r0 = atm.planet_radius + alt
     if auto and samples is None and vf.shape[0] >= TABLE_THRESHOLD and r0 <= atm.top_radius:
         dip = np.sqrt(max(0.0, 1.0 - (atm.planet_radius / r0) ** 2))
@@ -796,5 +798,7 @@ def single_scattering(
             )
         if method != "table":
             out = _radiance_from_J(atm, J, vf, s)
-    out = np.where(fin[:, None], np.maximum(out, 0.0), np.nan)
-    return out.reshape(lead + (atm.n_wavelengths,)).astype(out_dtype)
+    np.maximum(out, 0.0, out=out)
+    if not np.all(fin):
+        out[~fin] = np.nan
+    return out.reshape(lead + (atm.n_wavelengths,)).astype(out_dtype, copy=False)
