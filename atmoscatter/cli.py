@@ -23,6 +23,7 @@ import argparse
 import json
 import sys
 import time
+import warnings
 
 from .compare import add_compare_parser, run_compare
 
@@ -156,6 +157,10 @@ def _cmd_batch(args, out) -> int:
 def _fmt_header_value(v):
     if isinstance(v, tuple) and len(v) == 2 and hasattr(v[0], "tolist"):
         return f"{v[0].tolist()} - {v[1].tolist()}"
+    if hasattr(v, "name") and hasattr(v, "value"):  # OpenEXR enums
+        return str(v.name)
+    if isinstance(v, tuple) and all(isinstance(x, float) for x in v):
+        return "(" + ", ".join(f"{x:.6g}" for x in v) + ")"
     return str(v)
 
 
@@ -185,8 +190,17 @@ def _cmd_info(args, out) -> int:
         print(f"  {k:<28} {_fmt_header_value(v)}", file=out)
     if img.plan is not None:
         print("plan:", file=out)
-        for k, v in sorted(img.plan.items()):
-            print(f"  {k:<20} {v}", file=out)
+        try:
+            from .scene import Plan  # noqa: PLC0415
+
+            d = dict(img.plan)
+            d.update(layers=tuple(d["layers"]), wavelengths=tuple(d["wavelengths"]),
+                     notes=tuple(d["notes"]), atmosphere=None)
+            text = Plan(**d).explain()
+        except (TypeError, KeyError):  # a plan written by another version
+            text = "\n".join(f"{k:<20} {v}" for k, v in sorted(img.plan.items()))
+        for line in text.splitlines():
+            print(f"  {line}", file=out)
     return 0
 
 
@@ -215,6 +229,9 @@ def main(argv=None) -> int:
     if not args.command:
         parser.print_help()
         return 2
+    # colour-science announces at import that its optional plotting needs matplotlib; that
+    # is noise for a command-line user (the package does not plot)
+    warnings.filterwarnings("ignore", message='"Matplotlib" related API features')
     commands = {"render": _cmd_render, "batch": _cmd_batch, "info": _cmd_info,
                 "preview": _cmd_preview, "models": _cmd_models, "compare": run_compare}
     try:

@@ -143,8 +143,10 @@ def _matrices(colourspace: str):
     # rounding; RGB → XYZ is its exact inverse so the two round-trip to rounding error.
     # (colour-science's two sRGB matrices are each rounded to 4 decimals and are inverses of
     # each other only to 4e-5.)
+    # Returned transposed and contiguous: callers compute ``a @ M.T`` on (..., 3) rows, and
+    # a non-contiguous ``M.T`` makes that matmul ~6x slower.
     xyz_to_rgb = np.asarray(cs.matrix_XYZ_to_RGB, dtype=float)
-    return xyz_to_rgb, np.linalg.inv(xyz_to_rgb)
+    return np.ascontiguousarray(xyz_to_rgb.T), np.ascontiguousarray(np.linalg.inv(xyz_to_rgb).T)
 
 
 def XYZ_to_linear_rgb(XYZ, colourspace: str = "sRGB"):
@@ -157,8 +159,8 @@ def XYZ_to_linear_rgb(XYZ, colourspace: str = "sRGB"):
     ``Y = 0.2126 R + 0.7152 G + 0.0722 B`` for sRGB).  float32 in → float32 out.
     """
     a = as_float_array(XYZ, "XYZ")
-    M, _ = _matrices(colourspace)
-    return a @ M.T.astype(a.dtype, copy=False)
+    MT, _ = _matrices(colourspace)
+    return a @ MT.astype(a.dtype, copy=False)
 
 
 def linear_rgb_to_XYZ(rgb, colourspace: str = "sRGB"):
@@ -168,5 +170,5 @@ def linear_rgb_to_XYZ(rgb, colourspace: str = "sRGB"):
     matrices are rounded to 4 decimals).
     """
     a = as_float_array(rgb, "rgb")
-    _, M = _matrices(colourspace)
-    return a @ M.T.astype(a.dtype, copy=False)
+    _, MT = _matrices(colourspace)
+    return a @ MT.astype(a.dtype, copy=False)

@@ -15,7 +15,7 @@ Public objects
 :class:`DomeDirections`
     A sky-dome mesh (hemisphere, or sphere for an elevated observer) built
     symmetric about the solar vertical and refined adaptively around the sun
-    (seed 002 §5: "an adaptive dome mesh which is highly tessellated around the
+    (seed 002 §6: "an adaptive dome mesh which is highly tessellated around the
     sun"); each vertex carries the air optical length of its direction as its
     distance from the observer (seed 000: the mesh "conforms in size to the air
     molecule optical length values in all directions").

@@ -177,6 +177,8 @@ def write_exr(path, image, *, precision: str | None = None, compression: str = "
         header[str(k)] = str(v)
 
     path = os.fspath(path)
+    if os.path.isdir(path):
+        raise ValueError(f"output {path!r} is a directory; give a file name such as sky.exr")
     with atomic_write(path) as tmp:
         with OpenEXR.File(header, channels) as f:
             f.write(tmp)

@@ -46,6 +46,7 @@ import importlib
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from functools import lru_cache
 
 import numpy as np
 
@@ -96,6 +97,8 @@ class ModelAdapter:
         Stated accuracy of the model (recorded in the EXR header).
     turbidity_range : tuple of float, optional
         Turbidity range of a fitted model (outside it the model clamps and warns).
+    accepts_atmosphere : bool
+        The model takes a custom :class:`~atmoscatter.Atmosphere` (``plan.atmosphere``).
     """
 
     name: str
@@ -109,6 +112,7 @@ class ModelAdapter:
     wavelengths: Callable = field(default=lambda scene: ())
     error_estimate: str = "not stated"
     turbidity_range: tuple | None = None
+    accepts_atmosphere: bool = False
 
 
 MODELS: dict[str, ModelAdapter] = {}
@@ -344,7 +348,11 @@ def _build_atmosphere(scene, wavelengths):
         atm = presets.mars_atmosphere(wl)
     else:
         atm = presets.keller_bohn_atmosphere(wl)
-    # leave out constituents that neither scatter nor absorb (no haze at T = 1)
+    return _drop_empty(atm)
+
+
+def _drop_empty(atm):
+    """Leave out constituents that neither scatter nor absorb (no haze at T = 1)."""
     keep = tuple(c for c in atm.constituents if not c.is_empty)
     if len(keep) != len(atm.constituents):
         import dataclasses  # noqa: PLC0415
@@ -363,39 +371,72 @@ def _physical_wavelengths(scene):
     return (680.0, 550.0, 440.0)
 
 
+#: Exponent grid of the power-law integral tables (p in f ∝ λ^p, clipped to this range).
+_P_GRID = np.linspace(-40.0, 40.0, 1601)
+
+
+@lru_cache(maxsize=16)
+def _power_law_tables(sample_wavelengths: tuple):
+    """Integrals ``H_i(p) = K_m Σ_λ w(λ) E(λ) cmf(λ) (λ/λ_i)^p`` over segment i's range.
+
+    With f(λ) = f_i (λ/λ_i)^{p_i} on segment i (the power-law expansion of
+    :func:`rgb_sampling_matrix`), ``XYZ = Σ_i f_i H_i(p_i)`` exactly; H_i is
+    tabulated against p (1 nm grid 380–780 nm, ETR band-averaged over 1 nm, at
+    1 AU) and interpolated linearly (relative error ~1e-5).
+    """
+    from .colour import K_M, cmf_weights  # noqa: PLC0415
+
+    lam = np.asarray(sample_wavelengths, dtype=float)
+    order = np.argsort(lam)
+    ls = lam[order]
+    grid = np.arange(380.0, 780.0 + 0.5, 1.0)
+    w = K_M * cmf_weights(grid) * _band_etr(grid, 1.0)[:, None]  # (n_grid, 3)
+    seg = np.clip(np.searchsorted(ls, grid, side="right") - 1, 0, ls.size - 2)
+    H = np.empty((ls.size - 1, _P_GRID.size, 3))
+    for i in range(ls.size - 1):
+        m = seg == i
+        x = np.log(grid[m] / ls[i])  # (k,)
+        H[i] = np.exp(np.outer(_P_GRID, x)) @ w[m]
+    return order, ls, H
+
+
 def _per_irradiance_converter(wavelengths, rgb_sampled, plan):
     """``convert(f)``: radiance per unit solar irradiance f (n, n_wl) [sr⁻¹] → plan's outputs.
 
     Multiplies by the band-averaged ASTM G-173 ETR at the scene's Earth–Sun
-    distance and integrates with the CIE 1931 CMFs (K_m = 683 lm W⁻¹); RGB
-    samples are first expanded to a 380–780 nm spectrum as a power law
-    (:func:`rgb_sampling_matrix`).  Only ȳ is used when ``plan.quantity == "Y"``.
+    distance and integrates with the CIE 1931 CMFs (K_m = 683 lm W⁻¹).  RGB
+    samples are expanded to a 380–780 nm spectrum as a power law between the
+    samples (:func:`rgb_sampling_matrix`); that integral is evaluated exactly
+    per segment from tabulated ``H_i(p)`` (:func:`_power_law_tables`).  Only
+    ȳ is used when ``plan.quantity == "Y"``.
     """
     from .colour import K_M, cmf_weights  # noqa: PLC0415
 
     wl = np.asarray(wavelengths, dtype=float)
-    if rgb_sampled:
-        A = rgb_sampling_matrix(wl)
-        grid = FINE_GRID
-        W = cmf_weights(grid) * (K_M * _band_etr(grid, plan.distance_au))[:, None]
     E = _band_etr(wl, plan.distance_au)
-    if not rgb_sampled:
+    channels = [1] if plan.quantity == "Y" else [0, 1, 2]
+    if rgb_sampled:
+        order, ls, H = _power_law_tables(tuple(float(w) for w in wl))
+        H = H / plan.distance_au**2
+        dlog = np.log(ls[1:] / ls[:-1])
+    else:
         order = np.argsort(wl)
         W = np.empty((wl.size, 3))
         W[order] = cmf_weights(wl[order])
         W *= (K_M * E)[:, None]
-    Wq = W[:, 1:2] if plan.quantity == "Y" else W
+        Wq = W[:, channels]
 
     def convert(f):
         f = np.maximum(np.asarray(f, dtype=float), 0.0)
         out = {}
         if rgb_sampled:
-            logf = np.log(np.maximum(f, 1e-300))
-            lo = logf.min(axis=-1, keepdims=True) - 20.0
-            hi = logf.max(axis=-1, keepdims=True) + 3.0
-            fine = np.exp(np.clip(logf @ A, lo, hi))
-            fine[np.all(f == 0.0, axis=-1)] = 0.0
-            res = fine @ Wq
+            fs = f[:, order]
+            logf = np.log(np.maximum(fs, 1e-300))
+            res = np.zeros((len(f), len(channels)))
+            for i in range(ls.size - 1):
+                p = np.clip((logf[:, i + 1] - logf[:, i]) / dlog[i], _P_GRID[0], _P_GRID[-1])
+                for j, c in enumerate(channels):
+                    res[:, j] += fs[:, i] * np.interp(p, _P_GRID, H[i, :, c])
         else:
             res = f @ Wq
         if plan.quantity == "spectral":
@@ -415,14 +456,20 @@ def _make_physical_prepare(function_name):
         if fn is None:
             raise ValueError(f"model {function_name!r} is not available in this installation")
         wl = np.asarray(plan.wavelengths, dtype=float)
-        atm = _build_atmosphere(scene, wl)
+        if plan.atmosphere is not None:
+            atm = _drop_empty(plan.atmosphere)
+            rgb_sampled = wl.size <= 3
+        else:
+            atm = _build_atmosphere(scene, wl)
+            rgb_sampled = not (scene.sampling == "spectral" or scene.output == "spectral")
         sun = plan.sun_direction
         kwargs = {"altitude": scene.altitude}
         if function_name == "multiple_scattering":
-            kwargs.update(orders=scene.orders, ground_albedo=scene.ground_albedo)
+            kwargs["ground_albedo"] = scene.ground_albedo
+            if scene.orders is not None:
+                kwargs["orders"] = scene.orders
         elif scene.method is not None:
             kwargs["method"] = scene.method
-        rgb_sampled = not (scene.sampling == "spectral" or scene.output == "spectral")
         convert = _per_irradiance_converter(wl, rgb_sampled, plan)
 
         def evaluate(directions):
@@ -523,6 +570,7 @@ def physical_adapter(function_name: str) -> ModelAdapter:
         cost_per_direction=cost,
         wavelengths=_physical_wavelengths,
         error_estimate=err,
+        accepts_atmosphere=True,
     )
 
 

@@ -164,17 +164,23 @@ def _transmittance(scene: Scene, plan: Plan, wavelengths):
     from .models import _build_atmosphere  # noqa: PLC0415
     from .optical_length import optical_length  # noqa: PLC0415
 
-    atm = _build_atmosphere(scene, wavelengths)
+    wavelengths = np.asarray(wavelengths, dtype=float)
+    custom = plan.atmosphere
+    atm = _build_atmosphere(scene, wavelengths) if custom is None else custom
     mu = math.cos(plan.sun_zenith)
     r = float(atm.planet_radius) + scene.altitude
     if bool(ray_hits_ground(r, mu, float(atm.planet_radius))):
         return np.zeros(len(wavelengths))
-    tau = np.zeros(len(wavelengths))
+    tau = np.zeros(atm.n_wavelengths)
     for c in atm.constituents:
         ol = float(optical_length(c.profile, scene.altitude, mu,
                                   planet_radius=float(atm.planet_radius),
                                   top_radius=float(atm.top_radius)))
         tau += c.extinction_array * ol
+    if custom is not None:  # optical depth at the atmosphere's wavelengths → the grid
+        wl = atm.wavelengths_array
+        order = np.argsort(wl)
+        tau = np.interp(wavelengths, wl[order], tau[order])
     return np.exp(-tau)
 
 
@@ -338,18 +344,28 @@ def _default_workers():
     return max(1, min(os.cpu_count() or 1, 8))
 
 
-def render_batches(scene: Scene, *, batch_size: int | None = None, plan: Plan | None = None):
+def render_batches(scene: Scene, *, batch_size: int | None = None, plan: Plan | None = None,
+                   atmosphere=None):
     """Yield ``(start, stop, batch)`` for each batch of the scene's directions, in order.
 
     ``batch`` holds ``values`` (k, 3) XYZ or (k, 1) Y [cd m⁻²], ``spectral``
-    (k, n_wl) or None and ``alpha`` (k,) bool.  Only one batch exists at a
-    time, so a map of any size can be streamed with bounded memory.
+    (k, n_wl) or None and ``alpha``: a (k,) bool mask of the evaluated
+    directions, or None when all were.  Only one batch exists at a time, so a
+    map of any size can be streamed with bounded memory.
     """
-    p = make_plan(scene, batch_size=batch_size) if plan is None else plan
+    p = make_plan(scene, batch_size=batch_size, atmosphere=atmosphere) if plan is None else plan
     dset = direction_set(scene, p)
     ctx = _Context(scene, p, dset)
     for start, stop in dset.batches(p.batch_size):
         yield start, stop, ctx.batch(start, stop)
+
+
+def _error_estimate(adapter, plan) -> str:
+    text = adapter.error_estimate
+    if adapter.spectral and 0 < len(plan.wavelengths) <= 3:
+        text += ("; colour from 3 wavelengths expanded as a power law (measured on a clear "
+                 "sky: Y within 1.2 %, X and Z within 5 % of a 1 nm spectrum)")
+    return text
 
 
 def _metadata(scene, plan, dset, adapter):
@@ -359,7 +375,7 @@ def _metadata(scene, plan, dset, adapter):
         "atmoscatter:version": __version__,
         "atmoscatter:model": scene.model,
         "atmoscatter:model_description": adapter.description,
-        "atmoscatter:error_estimate": adapter.error_estimate,
+        "atmoscatter:error_estimate": _error_estimate(adapter, plan),
         "atmoscatter:plan": plan.to_json(),
         "atmoscatter:projection": dset.kind,
         "atmoscatter:units": "cd m-2 (linear RGB and XYZ), W m-2 sr-1 nm-1 (spectral)",
@@ -370,12 +386,14 @@ def _metadata(scene, plan, dset, adapter):
         md["atmoscatter:envmap_frame"] = "OpenEXR env frame x=west, y=up, z=north"
     if plan.wavelengths:
         md["atmoscatter:wavelengths"] = ",".join(f"{w:g}" for w in plan.wavelengths)
+    if plan.atmosphere is not None:
+        md["atmoscatter:custom_atmosphere"] = repr(plan.atmosphere)
     md.update(scene.to_strings())
     return md
 
 
-def render(scene: Scene | None = None, *, directions=None, batch_size: int | None = None,
-           workers: int | None = None) -> SkyImage:
+def render(scene: Scene | None = None, *, directions=None, atmosphere=None,
+           batch_size: int | None = None, workers: int | None = None) -> SkyImage:
     """Render ``scene`` (default: :class:`Scene` ()) to a :class:`SkyImage`.
 
     Parameters
@@ -386,6 +404,9 @@ def render(scene: Scene | None = None, *, directions=None, batch_size: int | Non
         Evaluate these unit view directions (local frame) instead of the
         scene's projection (e.g. the vertices of your own sky mesh); the
         layers then have shape ``directions.shape[:-1]``.
+    atmosphere : Atmosphere, optional
+        A custom atmosphere for the physical models (instead of the scene's
+        preset); recorded by name in the metadata.
     batch_size : int, optional
         Directions per model call (default :data:`atmoscatter.scene.DEFAULT_BATCH_SIZE`).
     workers : int, optional
@@ -409,7 +430,7 @@ def render(scene: Scene | None = None, *, directions=None, batch_size: int | Non
     """
     if scene is None:
         scene = Scene()
-    p = make_plan(scene, batch_size=batch_size)
+    p = make_plan(scene, batch_size=batch_size, atmosphere=atmosphere)
     dset = direction_set(scene, p) if directions is None else ArrayDirections(directions)
     ctx = _Context(scene, p, dset)
     n = dset.size

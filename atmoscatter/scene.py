@@ -33,6 +33,8 @@ from dataclasses import dataclass, field, fields
 
 import numpy as np
 
+from .sun import earth_sun_distance, sun_position
+
 __all__ = [
     "Scene",
     "Plan",
@@ -41,7 +43,6 @@ __all__ = [
     "PROJECTIONS",
     "OUTPUTS",
     "parse_time",
-    "earth_sun_distance",
 ]
 
 #: Output geometries (see :mod:`atmoscatter.directions`).
@@ -100,8 +101,9 @@ class Scene:
     ground_albedo : float
         Lambertian ground albedo in [0, 1]: used by multiple scattering and for
         the documented ground value below a ground observer's horizon.
-    orders : int
-        Scattering orders of ``multiple_scattering`` (1 = single scattering).
+    orders : int or None
+        Scattering orders of ``multiple_scattering`` (1 = single scattering;
+        ``None`` = that function's default).
     sampling : str
         ``rgb`` (the atmosphere's three sample wavelengths 680/550/440 nm) or
         ``spectral`` (380–780 nm every ``wavelength_step`` nm) for the physical
@@ -148,7 +150,7 @@ class Scene:
     altitude: float = 0.0
     atmosphere: str = "earth"
     ground_albedo: float = 0.0
-    orders: int = 4
+    orders: int | None = None
     sampling: str = "rgb"
     wavelength_step: float = 10.0
     output: str = "rgb"
@@ -237,15 +239,8 @@ class Scene:
                 math.radians(az % 360.0),
                 "given (sun_elevation_deg, sun_azimuth_deg)",
             )
-        try:
-            from . import sun as _sun  # noqa: PLC0415 - lazy: lands from another issue
-        except ImportError as exc:  # pragma: no cover - depends on merge state
-            raise ValueError(
-                "this scene gives a time and place but atmoscatter.sun is not available; "
-                "give sun_elevation_deg and sun_azimuth_deg instead"
-            ) from exc
         t = np.datetime64(self.datetime().replace(tzinfo=None), "ns")
-        pos = _sun.sun_position(t, self.latitude, self.longitude, elevation=0.0)
+        pos = sun_position(t, self.latitude, self.longitude, elevation=0.0)
         zen = float(np.asarray(pos.zenith))
         azi = float(np.asarray(pos.azimuth)) % (2 * math.pi)
         return zen, azi, "sun_position(time, latitude, longitude)"
@@ -353,7 +348,8 @@ def _validate(s: Scene) -> None:
                "the scene needs either a time (with latitude/longitude) or sun_elevation_deg")
     _check(s.altitude >= 0.0, f"altitude must be in [0, inf) m, got {s.altitude!r}")
     _check(0.0 <= s.ground_albedo <= 1.0, f"ground_albedo must be in [0, 1], got {s.ground_albedo!r}")
-    _check(s.orders >= 1, f"orders must be in [1, inf), got {s.orders!r}")
+    if s.orders is not None:
+        _check(s.orders >= 1, f"orders must be in [1, inf), got {s.orders!r}")
     _check(1.0 <= s.wavelength_step <= 100.0,
            f"wavelength_step must be in [1, 100] nm, got {s.wavelength_step!r}")
     for name, options in (("projection", PROJECTIONS), ("output", OUTPUTS),
@@ -405,22 +401,6 @@ def parse_time(value: str) -> _dt.datetime:
     if t.tzinfo is None:
         t = t.replace(tzinfo=_dt.timezone.utc)
     return t.astimezone(_dt.timezone.utc)
-
-
-def earth_sun_distance(time) -> float:
-    """Earth–Sun distance [AU] at ``time`` (ISO 8601 string or datetime).
-
-    Low-precision formula of the Astronomical Almanac (USNO "approximate solar
-    coordinates"): ``R = 1.00014 − 0.01671 cos g − 0.00014 cos 2g`` with the
-    mean anomaly ``g = 357.529° + 0.98560028° n`` and ``n`` the days since
-    J2000.0 (2000-01-01 12:00 TT, taken as UTC here); accurate to about 1e-5 AU
-    for 1950–2050.
-    """
-    t = parse_time(time)
-    j2000 = _dt.datetime(2000, 1, 1, 12, tzinfo=_dt.timezone.utc)
-    n = (t - j2000).total_seconds() / 86400.0
-    g = math.radians((357.529 + 0.98560028 * n) % 360.0)
-    return 1.00014 - 0.01671 * math.cos(g) - 0.00014 * math.cos(2.0 * g)
 
 
 # ----------------------------------------------------------------------------
@@ -546,6 +526,9 @@ class Plan:
         Directions per model call (bounds memory).
     notes : tuple of str
         Human-readable reasons for each decision.
+    atmosphere : Atmosphere or None
+        A custom :class:`~atmoscatter.Atmosphere` given to :func:`plan` (physical
+        models only); None means the scene's preset.
     """
 
     model: str
@@ -567,6 +550,7 @@ class Plan:
     distance_au: float
     batch_size: int
     notes: tuple = field(default_factory=tuple)
+    atmosphere: object = field(default=None, compare=False)
 
     @property
     def sun_direction(self) -> np.ndarray:
@@ -576,7 +560,9 @@ class Plan:
 
     def to_dict(self) -> dict:
         """The plan as a JSON-serialisable dictionary."""
-        d = dataclasses.asdict(self)
+        d = {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
+        d["atmosphere"] = None if self.atmosphere is None else getattr(
+            self.atmosphere, "name", "custom")
         d["layers"] = list(self.layers)
         d["wavelengths"] = list(self.wavelengths)
         d["notes"] = list(self.notes)
@@ -619,7 +605,7 @@ def _ground_value_text(scene: Scene) -> str:
             "sky and the transmitted direct sun (rho * E_h / pi)")
 
 
-def plan(scene: Scene, *, batch_size: int | None = None) -> Plan:
+def plan(scene: Scene, *, batch_size: int | None = None, atmosphere=None) -> Plan:
     """Decide the minimal work for ``scene``.
 
     Decisions (each recorded in :attr:`Plan.notes`):
@@ -637,13 +623,18 @@ def plan(scene: Scene, *, batch_size: int | None = None) -> Plan:
       for the models whose per-direction cost exceeds the cost of finding the
       pairs).
     * **sun disc** — only evaluated when ``sun_disc`` is true.
+
+    ``atmosphere`` (an :class:`~atmoscatter.Atmosphere`) replaces the scene's
+    preset for the physical models; its wavelengths are then the ones
+    evaluated (three or fewer: expanded as a power law; more: integrated as a
+    spectrum, which should cover 380–780 nm).
     """
     from .models import get_model  # noqa: PLC0415
 
     adapter = get_model(scene.model)
     notes = []
     zen, azi, source = scene.sun_angles()
-    distance = earth_sun_distance(scene.time) if scene.time else 1.0
+    distance = float(earth_sun_distance(parse_time(scene.time))) if scene.time else 1.0
 
     # what is asked for --------------------------------------------------------
     if scene.output == "luminance":
@@ -677,8 +668,26 @@ def plan(scene: Scene, *, batch_size: int | None = None) -> Plan:
         notes.append(f"turbidity {scene.turbidity:g} is outside {scene.model}'s fit range "
                      f"{rng[0]:g}-{rng[1]:g}: the model clamps it (with a warning)")
 
+    if atmosphere is not None:
+        if not adapter.accepts_atmosphere:
+            raise ValueError(
+                f"a custom atmosphere is used by the physical models only "
+                f"({', '.join(n for n, a in _models().items() if a.accepts_atmosphere)}); "
+                f"{scene.model!r} does not take one")
+        wl_custom = tuple(float(w) for w in np.atleast_1d(atmosphere.wavelengths_array))
+        if len(wl_custom) < 2:
+            raise ValueError("a custom atmosphere needs at least 2 wavelengths to give a colour")
+        live = [c for c in atmosphere.constituents if not c.is_empty]
+        haze = any(c.name not in ("rayleigh", "ozone") for c in live)
+        notes.append(f"custom atmosphere {getattr(atmosphere, 'name', 'custom')!r} with "
+                     f"{len(wl_custom)} wavelengths; constituents evaluated: "
+                     + ", ".join(c.name for c in live))
+
     # spectral sampling ----------------------------------------------------------
-    if adapter.spectral:
+    if atmosphere is not None:
+        wavelengths = wl_custom
+        integration = "Y only" if quantity == "Y" else "XYZ"
+    elif adapter.spectral:
         wavelengths = adapter.wavelengths(scene)
         integration = "Y only" if quantity == "Y" else "XYZ"
         if quantity == "Y":
@@ -738,6 +747,7 @@ def plan(scene: Scene, *, batch_size: int | None = None) -> Plan:
         distance_au=float(distance),
         batch_size=bs,
         notes=tuple(notes),
+        atmosphere=atmosphere,
     )
 
 

@@ -354,3 +354,12 @@ def test_scalar_shapes():
     np.testing.assert_allclose(out, ref[0], rtol=1e-15)
     assert ac.hoffman_preetham_sky([0.0, 0.0, 1.0], SUN).shape == (3,)
     assert np.ndim(ac.one_minus_exp_ratio(0.5)) == 0
+
+
+def test_path_integral_bad_input():
+    with pytest.raises(ValueError, match="beta"):
+        ac.path_integral(-1.0, 1.0)
+    with pytest.raises(ValueError, match="beta"):
+        ac.path_integral(np.inf, 1.0)
+    with pytest.raises(ValueError, match="s must be"):
+        ac.path_integral(1.0, -1.0)

@@ -139,3 +139,28 @@ def test_bad_input():
         ac.cie_overcast_sky([1.0, 2.0], 100.0)
     with pytest.raises(ValueError, match="sun_direction"):
         ac.cie_clear_sky([0, 0, 1.0], [0.0, 0.0, 0.0], 100.0)
+
+
+def test_clear_sky_agrees_with_cie_general_sky_type_12():
+    """CIE S 011/E:2003 (ISO 15469:2004) standard general sky, type 12 ("CIE standard clear
+    sky, low luminance turbidity"): gradation a = -1, b = -0.32, indicatrix c = 10, d = -3,
+    e = 0.45, with f(χ) = 1 + c[e^{dχ} - e^{dπ/2}] + e cos²χ. Its constant
+    1 - 10 e^{-3π/2} = 0.91010 is the 0.91 of the 1973 formula, so the two agree to ~2e-4."""
+
+    def general_sky(theta, chi, ts, a=-1.0, b=-0.32, c=10.0, d=-3.0, e=0.45):
+        def phi(z):
+            return 1 + a * math.exp(b / math.cos(z))
+
+        def f(x):
+            return 1 + c * (math.exp(d * x) - math.exp(d * math.pi / 2)) + e * math.cos(x) ** 2
+
+        return phi(theta) * f(chi) / (phi(0.0) * f(ts))
+
+    rng = np.random.default_rng(4)
+    for tsd in (10.0, 45.0, 75.0):
+        ts = math.radians(tsd)
+        theta = rng.uniform(0, math.pi / 2 - 1e-3, 30)
+        chi = rng.uniform(0, math.pi, 30)
+        got = ac.cie_clear_sky_luminance(theta, chi, ts, 1.0)
+        ref = [general_sky(t, c, ts) for t, c in zip(theta, chi, strict=True)]
+        np.testing.assert_allclose(got, ref, rtol=3e-4)

@@ -44,7 +44,7 @@ def test_render_set_and_info(tmp_path, capsys):
     assert main(["info", str(out)]) == 0
     text = capsys.readouterr().out
     assert "turbidity          = 5.0" in text and "atmoscatter:version" in text
-    assert "skip_below_horizon" in text
+    assert "below horizon    : not evaluated" in text
     assert main(["info", str(out), "--json"]) == 0
     assert '"turbidity": "5.0"' in capsys.readouterr().out
 

@@ -83,6 +83,7 @@ class TestRoundTrip:
             wl = atm.wavelengths_array
             return np.broadcast_to(1e-2 * (550.0 / wl) ** 4, d.shape[:-1] + wl.shape).copy()
 
+        previous = ac.MODELS.get("single_scattering")
         monkeypatch.setattr(ac, "single_scattering", fake, raising=False)
         register_model(physical_adapter("single_scattering"), replace=True)
         try:
@@ -90,6 +91,8 @@ class TestRoundTrip:
                                   wavelength_step=50.0, width=8, height=4))
         finally:
             unregister_model("single_scattering")
+            if previous is not None:
+                register_model(previous)
         back = read_exr(write_exr(tmp_path / "s.exr", img))
         wl, spec = back.spectral
         np.testing.assert_array_equal(wl, img.wavelengths)
@@ -271,3 +274,8 @@ def test_written_files_get_normal_permissions(tmp_path):
     mask = os.umask(0)
     os.umask(mask)
     assert stat.S_IMODE(os.stat(p).st_mode) == 0o666 & ~mask
+
+
+def test_directory_as_output_is_a_clear_error(tmp_path):
+    with pytest.raises(ValueError, match="is a directory"):
+        write_exr(tmp_path, ac.render(scene()))

@@ -11,7 +11,7 @@ from decimal import Decimal, localcontext
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 from scipy.integrate import quad
 
@@ -269,6 +269,9 @@ def test_property_finite_nonnegative_and_bounded(h, mu):
     mu=st.floats(min_value=-1.0, max_value=1.0),
 )
 def test_property_matches_quadrature(h, mu):
+    # The quadrature reference forms r0 = R + h, which rounds altitudes below ~ulp(R) away
+    # (optical_length keeps them: see test_tiny_altitudes_keep_their_path below).
+    assume(h == 0.0 or h > 1e-6)
     p = ac.ExponentialProfile(8000.0)
     ref = reference_optical_length(p, h, mu)
     got = ac.optical_length(p, h, mu, **KW)
@@ -276,6 +279,16 @@ def test_property_matches_quadrature(h, mu):
         assert got == 0.0
     else:
         assert got == pytest.approx(ref, rel=1e-8)
+
+
+def test_tiny_altitudes_keep_their_path():
+    # Straight down from h: the path is h long at density exp(−z/H), so the optical length is
+    # H(1 − e^(−h/H)) = −H·expm1(−h/H) exactly; forming r0 = R + h first would lose h < 1e-9 m
+    # entirely and a millimetre path to 5e-7 relative.
+    p = ac.ExponentialProfile(8000.0)
+    h = np.array([1e-300, 1e-12, 1e-6, 1e-3, 0.0625, 1.0])
+    got = ac.optical_length(p, h, -1.0, **KW)
+    np.testing.assert_allclose(got, -8000.0 * np.expm1(-h / 8000.0), rtol=1e-9)
 
 
 # ---------------------------------------------------------------------------------------

@@ -9,7 +9,8 @@ import pytest
 
 import atmoscatter as ac
 from atmoscatter.models import ModelAdapter, register_model, unregister_model
-from atmoscatter.scene import Plan, Scene, earth_sun_distance, load_scene, parse_time, plan
+from atmoscatter.scene import Plan, Scene, load_scene, parse_time, plan
+from atmoscatter.sun import earth_sun_distance
 
 
 def _toy_prepare(scene, plan):
@@ -82,6 +83,8 @@ class TestScene:
         ("colourspace", "sRGBB", "colourspace='sRGBB' is not valid"),
         ("alpha", "maybe", "alpha must be true/false"),
         ("sun_elevation_deg", 95.0, r"sun_elevation_deg must be in \[-90, 90\]"),
+        ("orders", 0, r"orders must be in \[1, inf\)"),
+        ("longitude", 400.0, r"longitude must be in \[-360, 360\]"),
     ])
     def test_bad_values_name_field_and_range(self, field, value, match):
         with pytest.raises(ValueError, match=match):
@@ -163,7 +166,7 @@ class TestTime:
         ("2024-07-05T00:00Z", 1.01673),
     ])
     def test_earth_sun_distance(self, date, expected):
-        assert earth_sun_distance(date) == pytest.approx(expected, abs=3e-5)
+        assert float(earth_sun_distance(parse_time(date))) == pytest.approx(expected, abs=3e-5)
 
 
 class TestPlan:

@@ -196,8 +196,13 @@ def path_integral(beta, s):
     numpy.ndarray
         The integral. [m]
     """
-    beta = as_float_array(beta, "beta")
-    s = as_float_array(s, "s")
+    beta = check_positive(beta, "beta", allow_zero=True, unit="m^-1")
+    s = _nonneg(s, "s")
+    return _path_integral(beta, s)
+
+
+def _path_integral(beta, s):
+    """:func:`path_integral` without input checks (β finite ≥ 0, s ≥ 0 or inf)."""
     with np.errstate(invalid="ignore", over="ignore"):
         x = beta * s
         ok = (x > 0) & np.isfinite(beta) & (beta > 0)
@@ -370,13 +375,13 @@ def _two_shell(sa, sh, air_t, haze_t, ba, bh):
     sh = sh[..., None]
     s1 = np.minimum(sa, sh)
     b_tot = ba + bh
-    inner = (air_t + haze_t) * path_integral(b_tot, s1)
+    inner = (air_t + haze_t) * _path_integral(b_tot, s1)
     with np.errstate(invalid="ignore"):
         outer_len = np.where(sa >= sh, sa - s1, sh - s1)
         outer_len = np.where(np.isinf(sa) & np.isinf(sh), 0.0, outer_len)
     outer_t = np.where(sa >= sh, air_t, haze_t)
     outer_b = np.where(sa >= sh, ba, bh)
-    outer = outer_t * path_integral(outer_b, outer_len) * np.exp(-_mul(b_tot, s1))
+    outer = outer_t * _path_integral(outer_b, outer_len) * np.exp(-_mul(b_tot, s1))
     return inner + outer
 
 
@@ -592,7 +597,7 @@ def _aerial_chunk(L0, d, v, sun, E, b_sa, b_sh, g, b_ex):
     air_t, haze_t = _phase_terms(mu, b_sa, b_sh, g)
     dd = d.astype(np.float64)[..., None]
     F = np.exp(-_mul(b_ex, dd))
-    Lin = E * (air_t + haze_t) * path_integral(b_ex, dd)
+    Lin = E * (air_t + haze_t) * _path_integral(b_ex, dd)
     out = F * L0 + Lin
     if np.any(bad_dir):
         out = np.where(bad_dir[..., None], np.nan, out)

@@ -138,6 +138,8 @@ class PreethamValidityWarning(UserWarning):
 def _turbidity(turbidity, out_of_range: str, *, scalar: bool = False) -> np.ndarray:
     """Apply the validity policy to ``turbidity``; returns the (clamped) float64 array."""
     check_option(out_of_range, "out_of_range", _OUT_OF_RANGE_POLICIES)
+    if type(turbidity) in (float, int) and 2.0 <= turbidity <= 10.0:  # fast path, in range
+        return np.float64(turbidity)
     T = as_float_array(turbidity, "turbidity").astype(np.float64)
     if scalar and T.ndim != 0:
         raise ValueError(
@@ -303,12 +305,14 @@ _KIND_XYZ, _KIND_YXY, _KIND_RGB = 0, 1, 2
 
 
 def _sun(sun_direction) -> np.ndarray:
+    """The unit sun vector (float64, shape (3,)), validated."""
     s = as_float_array(sun_direction, "sun_direction").astype(np.float64)
     if s.shape != (3,):
         raise ValueError(f"sun_direction must have shape (3,), got shape {s.shape}")
-    if not np.all(np.isfinite(s)):
+    x, y, z = s.tolist()
+    norm = math.sqrt(x * x + y * y + z * z)
+    if not math.isfinite(norm):
         raise ValueError(f"sun_direction must be finite, got {s.tolist()!r}")
-    norm = math.sqrt(float(s @ s))
     if norm == 0.0:
         raise ValueError("sun_direction must be a non-zero vector, got [0, 0, 0]")
     return s / norm
@@ -326,12 +330,18 @@ def _views(view_directions) -> np.ndarray:
 
 
 def _setup(sun: np.ndarray, T: float):
-    """Per-call constants: coefficient table (3, 5) and zenith values divided by F(0, θ_s).
+    """Per-call constants: coefficient table (3, 5) and zenith values divided by F(0, θ_s)."""
+    return _setup_cached(float(T), float(sun[2]))
+
+
+@lru_cache(maxsize=64)
+def _setup_cached(T: float, cos_sun_zenith: float):
+    """:func:`_setup` for a turbidity and sun height (cached: repeated calls for one frame).
 
     Scalar Python arithmetic (the same formulas as :func:`_zenith`), to keep the per-call
-    overhead of the direction API small.
+    overhead of the direction API small. Returns read-only arrays.
     """
-    ts = math.acos(min(max(float(sun[2]), -1.0), 1.0))
+    ts = math.acos(min(max(cos_sun_zenith, -1.0), 1.0))
     M = PREETHAM_DISTRIBUTION_MATRIX
     coef = M[..., 0] * T + M[..., 1]  # (3, 5)
     chi = (4.0 / 9.0 - T / 120.0) * (math.pi - 2.0 * ts)
@@ -347,7 +357,11 @@ def _setup(sun: np.ndarray, T: float):
     for k, z in enumerate((Yz, xz, yz)):
         A, B, C, D, E = coef[k].tolist()
         zen.append(z / ((1.0 + A * math.exp(B)) * (1.0 + C * math.exp(D * ts) + E * cs2)))
-    return np.ascontiguousarray(coef), np.array(zen)
+    coef = np.ascontiguousarray(coef)
+    zen = np.array(zen)
+    coef.flags.writeable = False
+    zen.flags.writeable = False
+    return coef, zen
 
 
 def _numpy_chunk(v, sun, coef, zen_scaled, matrix, kind, out):
@@ -507,35 +521,27 @@ if _HAVE_NUMBA:
                 out[i, 1] = M[1, 0] * X + M[1, 1] * Y + M[1, 2] * Z
                 out[i, 2] = M[2, 0] * X + M[2, 1] * Y + M[2, 2] * Z
 
-    @_njit
-    def _table_rows(v, sun, tab, zen, M, kind, out, start, stop):  # pragma: no cover
-        """Rows ``start:stop`` of the float32 Preetham evaluation by table interpolation.
+    #: Directions per block of the float32 kernel (scratch arrays stay in L1).
+    _BLOCK = 256
 
-        ``tab`` (6, 2N): rows 0–2 the horizon factor of Y, x, y on N nodes of cos θ (then
-        padding), rows 3–5 the circumsolar factor on N nodes of sin(γ/2) followed by N nodes
-        of cos(γ/2). Geometry in float32 (the chord lengths carry an absolute error of a few
-        1e-8, far below what the tables resolve); interpolation and products in float64.
-        Written branch-free with unsigned 1-D indices (numba then emits no negative-index
-        wraparound code): about 2x faster than per-direction helper functions on 2-D tables.
-        NaN or zero vectors index row 0 and are poisoned with NaN.
+    @numba.njit(cache=True, nogil=True, error_model="numpy", fastmath={"contract", "nsz"})
+    def _table_geometry(vx, vy, vz, sx, sy, sz, count, N, ic, fc, ig, fg, poison):  # pragma: no cover
+        """Vectorisable pass of the float32 kernel over one block (structure of arrays).
+
+        Normalises each direction and computes the two table positions: ``cos θ`` (clamped to
+        [0, 1]) on the horizon table, and ``min(sin(γ/2), cos(γ/2))`` with the half (near /
+        far side of 90°) on the circumsolar table, where ``sin(γ/2) = |v̂ − ŝ|/2`` and
+        ``cos(γ/2) = |v̂ + ŝ|/2``. Float32 arithmetic; no branches, so LLVM emits SIMD code
+        (AVX-512/AVX2 ``vsqrtps``). NaN or zero vectors get position 0 and a NaN ``poison``.
+        Only ``contract``/``nsz`` fast-math flags: NaN and infinity semantics are kept.
         """
         f32 = np.float32
-        sx = sun[0]
-        sy = sun[1]
-        sz = sun[2]
-        N = tab.shape[1] // 2
         n1 = np.float64(N - 1)
         scale = n1 / 0.7071067811865476
-        h0 = tab[0]
-        h1 = tab[1]
-        h2 = tab[2]
-        c0 = tab[3]
-        c1 = tab[4]
-        c2 = tab[5]
-        for i in range(start, stop):
-            x = v[i, 0]
-            y = v[i, 1]
-            z = v[i, 2]
+        for k in range(count):
+            x = vx[k]
+            y = vy[k]
+            z = vz[k]
             inv = f32(1.0) / math.sqrt(x * x + y * y + z * z)
             x *= inv
             y *= inv
@@ -546,38 +552,86 @@ if _HAVE_NUMBA:
             px = x + sx
             py = y + sy
             pz = z + sz
-            u = f32(0.5) * math.sqrt(dx * dx + dy * dy + dz * dz)  # sin(γ/2)
-            w = f32(0.5) * math.sqrt(px * px + py * py + pz * pz)  # cos(γ/2)
-            ok = (z == z) & (u == u) & (w == w)
-            tc = np.float64(min(max(z, f32(0.0)), f32(1.0)) if ok else f32(0.0)) * n1
-            ic = np.uint64(min(tc, n1 - 1.0))
-            fc = tc - np.float64(ic)
-            t = np.float64(min(u, w) if ok else f32(0.0)) * scale
-            j = np.uint64(min(t, n1 - 1.0))
-            fg = t - np.float64(j)
-            ig = j + (np.uint64(N) if u > w else np.uint64(0))
-            ic1 = ic + np.uint64(1)
-            ig1 = ig + np.uint64(1)
-            p = 0.0 if ok else np.nan
-            Y = zen[0] * (h0[ic] + fc * (h0[ic1] - h0[ic])) * (c0[ig] + fg * (c0[ig1] - c0[ig])) + p
-            xc = zen[1] * (h1[ic] + fc * (h1[ic1] - h1[ic])) * (c1[ig] + fg * (c1[ig1] - c1[ig])) + p
-            yc = zen[2] * (h2[ic] + fc * (h2[ic1] - h2[ic])) * (c2[ig] + fg * (c2[ig1] - c2[ig])) + p
-            if kind == 1:
-                out[i, 0] = Y
-                out[i, 1] = xc
-                out[i, 2] = yc
-                continue
-            Yy = Y / yc
-            X = xc * Yy
-            Z = (1.0 - xc - yc) * Yy
-            if kind == 0:
-                out[i, 0] = X
-                out[i, 1] = Y
-                out[i, 2] = Z
-            else:
-                out[i, 0] = M[0, 0] * X + M[0, 1] * Y + M[0, 2] * Z
-                out[i, 1] = M[1, 0] * X + M[1, 1] * Y + M[1, 2] * Z
-                out[i, 2] = M[2, 0] * X + M[2, 1] * Y + M[2, 2] * Z
+            u2 = dx * dx + dy * dy + dz * dz  # (2 sin(γ/2))²
+            w2 = px * px + py * py + pz * pz  # (2 cos(γ/2))²
+            m = f32(0.5) * math.sqrt(u2 if u2 < w2 else w2)
+            ok = (z == z) & (m == m)
+            zz = z if ok else f32(0.0)
+            zz = f32(0.0) if zz < f32(0.0) else (f32(1.0) if zz > f32(1.0) else zz)
+            tc = np.float64(zz) * n1
+            i = np.int64(tc if tc < n1 - 1.0 else n1 - 1.0)
+            ic[k] = i
+            fc[k] = tc - np.float64(i)
+            t = np.float64(m if ok else f32(0.0)) * scale
+            j = np.int64(t if t < n1 - 1.0 else n1 - 1.0)
+            fg[k] = t - np.float64(j)
+            ig[k] = j + (N if u2 > w2 else 0)
+            poison[k] = 0.0 if ok else np.nan
+
+    @_njit
+    def _table_rows(v, sun, tab, zen, M, kind, out, start, stop):  # pragma: no cover
+        """Rows ``start:stop`` of the float32 Preetham evaluation by table interpolation.
+
+        ``tab`` (6, 2N): rows 0–2 the horizon factor of Y, x, y at N nodes of cos θ (then
+        padding), rows 3–5 the circumsolar factor at N nodes of sin(γ/2) followed by N nodes
+        of cos(γ/2). Works in blocks of ``_BLOCK`` directions: copy to a structure of arrays,
+        the SIMD geometry pass (:func:`_table_geometry`), then a scalar pass of table lookups
+        (unsigned 1-D indices: no negative-index wraparound code), linear interpolation and
+        products in float64, and the Yxy → XYZ → ``M``·XYZ output by ``kind``. About 2× the
+        speed of a single fused loop and 2.5× per-direction helpers on 2-D tables.
+        """
+        sx = sun[0]
+        sy = sun[1]
+        sz = sun[2]
+        N = tab.shape[1] // 2
+        h0 = tab[0]
+        h1 = tab[1]
+        h2 = tab[2]
+        c0 = tab[3]
+        c1 = tab[4]
+        c2 = tab[5]
+        vx = np.empty(_BLOCK, np.float32)
+        vy = np.empty(_BLOCK, np.float32)
+        vz = np.empty(_BLOCK, np.float32)
+        ic = np.empty(_BLOCK, np.int64)
+        ig = np.empty(_BLOCK, np.int64)
+        fc = np.empty(_BLOCK)
+        fg = np.empty(_BLOCK)
+        poison = np.empty(_BLOCK)
+        one = np.uint64(1)
+        for lo in range(start, stop, _BLOCK):
+            count = min(stop, lo + _BLOCK) - lo
+            for k in range(count):
+                vx[k] = v[lo + k, 0]
+                vy[k] = v[lo + k, 1]
+                vz[k] = v[lo + k, 2]
+            _table_geometry(vx, vy, vz, sx, sy, sz, count, N, ic, fc, ig, fg, poison)
+            for k in range(count):
+                a = np.uint64(ic[k])
+                b = np.uint64(ig[k])
+                f = fc[k]
+                g = fg[k]
+                p = poison[k]
+                Y = zen[0] * (h0[a] + f * (h0[a + one] - h0[a])) * (c0[b] + g * (c0[b + one] - c0[b])) + p
+                xc = zen[1] * (h1[a] + f * (h1[a + one] - h1[a])) * (c1[b] + g * (c1[b + one] - c1[b])) + p
+                yc = zen[2] * (h2[a] + f * (h2[a + one] - h2[a])) * (c2[b] + g * (c2[b + one] - c2[b])) + p
+                i = lo + k
+                if kind == 1:
+                    out[i, 0] = Y
+                    out[i, 1] = xc
+                    out[i, 2] = yc
+                    continue
+                Yy = Y / yc
+                X = xc * Yy
+                Z = (1.0 - xc - yc) * Yy
+                if kind == 0:
+                    out[i, 0] = X
+                    out[i, 1] = Y
+                    out[i, 2] = Z
+                else:
+                    out[i, 0] = M[0, 0] * X + M[0, 1] * Y + M[0, 2] * Z
+                    out[i, 1] = M[1, 0] * X + M[1, 1] * Y + M[1, 2] * Z
+                    out[i, 2] = M[2, 0] * X + M[2, 1] * Y + M[2, 2] * Z
 
 
 def _evaluate(view_directions, sun_direction, turbidity, kind, matrix, out_of_range, backend):
