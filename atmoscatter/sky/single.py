@@ -7,9 +7,10 @@ single_scattering
     arbitrary view directions, for an observer anywhere (ground, inside, top, space).
 SINGLE_SCATTERING_METHODS
     Registry of the quadrature methods (drives validation and the docs).
-DEFAULT_SINGLE_SCATTERING_METHOD, DEFAULT_SINGLE_SCATTERING_SAMPLES
-    The default method and its sample count (chosen from the convergence study in
-    ``docs/convergence.md``).
+DEFAULT_SINGLE_SCATTERING_METHOD, DEFAULT_SINGLE_SCATTERING_SAMPLES, TABLE_THRESHOLD
+    The default method, its sample count (chosen from the convergence study in
+    ``docs/convergence.md``) and the batch size from which the default may use the
+    symmetric table path.
 ConvergenceWarning
     Emitted when ``method="reference"`` cannot reach the requested ``rtol``.
 
@@ -543,8 +544,10 @@ SINGLE_SCATTERING_METHODS: dict[str, str] = {
     ),
     "table": (
         "Observer inside the atmosphere only: 'graded' (order 4) at Chebyshev nodes in "
-        "sqrt(mu - mu_horizon) × Lobatto nodes in cos(relative azimuth), interpolated; the "
-        "exact phase functions are applied per direction.  samples = nodes in mu."
+        "asin(sqrt(mu - mu_horizon)) × Lobatto nodes in cos(relative azimuth), "
+        "interpolated; the exact phase functions are applied per direction.  samples = "
+        "nodes in mu.  Accurate (< 1e-4 measured) only where the sky is smooth: not in "
+        "twilight (planet shadow) nor above a profile breakpoint (ozone layer edge)."
     ),
     "reference": (
         "'graded' refined level by level (more panels, higher order) until successive levels "
