@@ -583,3 +583,16 @@ def test_random_atmospheres_and_geometries_default_within_1e3():
         big = ref > 1e-15  # far below any visible sky (daylight ~1e-2, deep twilight ~1e-9)
         assert np.all(got[ref == 0] == 0)
         assert _max_rel(got[big], ref[big]) < 1e-3
+
+
+def test_vacuum_and_finely_tabulated_profile():
+    vac = ac.Atmosphere(6.371e6, 6.431e6, (550.0,), ())
+    v = np.array([_dir(0, 0), _dir(80, 30)])
+    assert np.all(single_scattering(vac, v, _sun(20)) == 0)
+    # US Standard Atmosphere 1976 (a log-linear table with ~90 kinks): the default still
+    # splits at every kink and agrees with the reference
+    prof = ac.us_standard_1976_profile()
+    atm = ac.Atmosphere(6.371e6, 6.371e6 + 86e3, (440.0,), (
+        ac.Constituent("air", 3.31e-5, 0.0, prof, ac.RayleighPhase()),))
+    ref = single_scattering(atm, v, _sun(20), method="reference", rtol=1e-7)
+    np.testing.assert_allclose(single_scattering(atm, v, _sun(20)), ref, rtol=1e-4)

@@ -145,6 +145,8 @@ class _Batch:
 
 def _combine(atm, rho, weights, lview, lsun, lit):
     """``J_g = Σ_nodes w ρ_g T lit`` with ``T = exp(−Σ_j β_e,j (L_view + L_sun))``."""
+    if not rho:  # no constituents: nothing scatters
+        return np.zeros((0, weights.shape[0], atm.n_wavelengths))
     tau = np.zeros(weights.shape + (atm.n_wavelengths,))
     for g in range(len(rho)):
         tau += (lview[g] + lsun[g])[..., None] * atm.extinction[g]
