@@ -43,6 +43,7 @@ References
 
 from __future__ import annotations
 
+import threading
 from dataclasses import dataclass
 
 import numpy as np
@@ -97,6 +98,7 @@ MULTIPLE_SCATTERING_GRID = MultipleScatteringGrid()
 _MS_TABLE_NODES = (129, 33)
 
 _CACHE: dict = {}
+_CACHE_LOCK = threading.Lock()
 _CACHE_MAX = 4
 
 
@@ -371,12 +373,15 @@ def _field_for(atm_obj, atm, grid, albedo, orders):
     except TypeError:  # unhashable custom atmosphere: no caching
         st = _FieldState(atm, grid, albedo)
         return st.field, st.source_sum(orders)
-    if key not in _CACHE:
-        if len(_CACHE) >= _CACHE_MAX:
-            _CACHE.pop(next(iter(_CACHE)))
-        _CACHE[key] = _FieldState(atm, grid, albedo)
-    st = _CACHE[key]
-    return st.field, st.source_sum(orders)
+    # one lock: renderers call from several threads, and a field state must neither be
+    # built twice nor extended by two threads at once
+    with _CACHE_LOCK:
+        if key not in _CACHE:
+            if len(_CACHE) >= _CACHE_MAX:
+                _CACHE.pop(next(iter(_CACHE)))
+            _CACHE[key] = _FieldState(atm, grid, albedo)
+        st = _CACHE[key]
+        return st.field, st.source_sum(orders)
 
 
 def multiple_scattering(
