@@ -29,8 +29,8 @@ from .sky.cie import *  # noqa: F403
 from .sky.perez import *  # noqa: F403
 from .sky.preetham import *  # noqa: F403
 # numerical scattering
-from .sky.multiple import *  # noqa: F403
 from .sky.single import *  # noqa: F403
+from .sky.multiple import *  # noqa: F403
 # scenes, rendering, files, CLI
 from .scene import *  # noqa: F403
 from .directions import *  # noqa: F403

@@ -42,6 +42,7 @@ References
 from __future__ import annotations
 
 import datetime as _dt
+import re
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -121,13 +122,30 @@ def _scalar_to_datetime64(value, name: str) -> np.datetime64:
         return np.datetime64(value, "D").astype("datetime64[us]")
     if isinstance(value, str):
         try:
-            return np.datetime64(value).astype("datetime64[us]")
+            return _parse_iso(value)
         except ValueError as exc:
             raise ValueError(f"{name}: cannot parse {value!r} as an ISO-8601 UTC time") from exc
     raise TypeError(
         f"{name} must be datetime64, datetime, pandas timestamps or ISO strings, "
         f"got {type(value).__name__} {value!r}"
     )
+
+
+_TZ_SUFFIX = re.compile(r"T.*(?:[Zz]|[+-]\d\d(?::?\d\d)?)$")
+
+
+def _parse_iso(text: str) -> np.datetime64:
+    """One ISO-8601 string → ``datetime64[us]`` UTC.
+
+    A trailing ``Z`` or ``±hh:mm`` offset is applied (converted to UTC) by the standard
+    library; strings without one are read as UTC by NumPy.  (NumPy itself only warns about
+    offsets and is deprecating them.)
+    """
+    if _TZ_SUFFIX.search(text):
+        t = text[:-1] + "+00:00" if text[-1] in "Zz" else text
+        d = _dt.datetime.fromisoformat(t)
+        return np.datetime64(d.astimezone(_dt.timezone.utc).replace(tzinfo=None), "us")
+    return np.datetime64(text).astype("datetime64[us]")
 
 
 def _as_datetime64(time, name: str = "time") -> np.ndarray:
@@ -152,6 +170,9 @@ def _as_datetime64(time, name: str = "time") -> np.ndarray:
         return arr.astype("datetime64[us]", copy=False)
     if kind in "US":
         try:
+            if any(_TZ_SUFFIX.search(v) for v in arr.astype(str).ravel()):
+                flat = [_parse_iso(v) for v in arr.astype(str).ravel()]
+                return np.array(flat, dtype="datetime64[us]").reshape(arr.shape)
             return arr.astype("datetime64[us]")
         except ValueError as exc:
             raise ValueError(f"{name}: cannot parse {time!r} as ISO-8601 UTC times") from exc

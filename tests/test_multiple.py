@@ -97,3 +97,40 @@ def test_grid_is_a_frozen_dataclass():
     g = MultipleScatteringGrid()
     with pytest.raises(AttributeError):
         g.n_mu = 4  # type: ignore[misc]
+
+
+def test_large_batches_use_a_table_within_1e3(monkeypatch):
+    """Large batches tabulate the (smooth) multiple-scattering part over (μ, φ)."""
+    import atmoscatter.sky.multiple as ms_mod
+
+    atm = _atm()
+    rng = np.random.default_rng(3)
+    v = rng.normal(size=(300, 3))
+    v /= np.linalg.norm(v, axis=1)[:, None]
+    direct = multiple_scattering(atm, v, _S, orders=6, ground_albedo=0.3)
+    monkeypatch.setattr(ms_mod, "TABLE_THRESHOLD", 100)
+    tab = multiple_scattering(atm, v, _S, orders=6, ground_albedo=0.3)
+    sky = direct[:, 0] > 0
+    assert np.all(tab[~sky] == 0)
+    assert np.max(np.abs(tab[sky] - direct[sky]) / direct[sky]) < 1e-3
+    # from 12 km (ground part of the table as well)
+    d12 = multiple_scattering(atm, v, _S, altitude=12e3, orders=3, ground_albedo=0.3)
+    monkeypatch.setattr(ms_mod, "TABLE_THRESHOLD", 10**9)
+    r12 = multiple_scattering(atm, v, _S, altitude=12e3, orders=3, ground_albedo=0.3)
+    assert np.max(np.abs(d12 - r12) / r12) < 1e-3
+
+
+def test_concurrent_calls_share_one_field():
+    """Renderers call from several threads: the cached field is built and extended once."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    import atmoscatter.sky.multiple as ms_mod
+
+    atm = _atm()
+    serial = multiple_scattering(atm, _V, _S, orders=4, ground_albedo=0.3)
+    ms_mod._CACHE.clear()
+    with ThreadPoolExecutor(4) as pool:
+        outs = list(pool.map(lambda k: multiple_scattering(atm, _V, _S, orders=k,
+                                                           ground_albedo=0.3), [4, 3, 4, 4]))
+    np.testing.assert_allclose(outs[0], serial, rtol=1e-12)
+    np.testing.assert_allclose(outs[2], serial, rtol=1e-12)

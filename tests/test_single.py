@@ -464,9 +464,11 @@ def _grid(nz, na, zmax=89.9, zmin=0.0):
     return np.array([_dir(zz, aa) for zz in z for aa in a])
 
 
-@pytest.mark.parametrize("elev, alt", [(30.0, 0.0), (1.0, 0.0), (8.0, 12e3)])
-def test_table_within_1e3_of_graded(elev, alt):
-    atm = ac.earth_atmosphere()
+@pytest.mark.parametrize("elev, alt, ozone", [(30.0, 0.0, True), (1.0, 0.0, True),
+                                              (8.0, 12e3, False)])
+def test_table_within_1e3_of_graded(elev, alt, ozone):
+    """Where the default uses the table (ground; elevated without breakpoints below)."""
+    atm = ac.earth_atmosphere(ozone=ozone)
     v = _grid(24, 10, zmax=179.0 if alt else 89.9)
     ref = single_scattering(atm, v, _sun(elev, 100.0), altitude=alt, method="graded", samples=8)
     got = single_scattering(atm, v, _sun(elev, 100.0), altitude=alt, method="table")
@@ -479,23 +481,34 @@ def test_table_rejects_space_observer():
                           method="table")
 
 
-def test_default_switches_to_table_only_when_safe():
+def test_default_switches_to_table_only_when_safe(monkeypatch):
+    import atmoscatter.sky.single as single_mod
+
+    monkeypatch.setattr(single_mod, "TABLE_THRESHOLD", 300)
     atm = ac.earth_atmosphere()
     rng = np.random.default_rng(1)
-    v = rng.normal(size=(5000, 3))
+    v = rng.normal(size=(400, 3))
     v[:, 2] = np.abs(v[:, 2])
     v /= np.linalg.norm(v, axis=1)[:, None]
     s = _sun(20.0)
     auto = single_scattering(atm, v, s)
     np.testing.assert_array_equal(auto, single_scattering(atm, v, s, method="table"))
-    sub = rng.choice(len(v), 200, replace=False)
-    ref = single_scattering(atm, v[sub], s, method="graded", samples=8)
-    assert _max_rel(auto[sub], ref) < 1e-3
+    ref = single_scattering(atm, v, s, method="graded", samples=8)
+    assert _max_rel(auto, ref) < 1e-3
+    # below the threshold, or with samples given, the graded rule is used
+    np.testing.assert_array_equal(single_scattering(atm, v[:200], s),
+                                  single_scattering(atm, v[:200], s, method="graded"))
     # sun below the horizon: shadows on the view paths, the table is not used
     tw = _sun(-3.0)
-    few = v[:4096]
-    np.testing.assert_array_equal(single_scattering(atm, few, tw),
-                                  single_scattering(atm, few, tw, method="graded"))
+    np.testing.assert_array_equal(single_scattering(atm, v, tw),
+                                  single_scattering(atm, v, tw, method="graded"))
+    # observer above the ozone layer's lower edge (kinks in the sky): graded
+    np.testing.assert_array_equal(single_scattering(atm, v, s, altitude=12e3),
+                                  single_scattering(atm, v, s, altitude=12e3, method="graded"))
+    # ... but the table is used there without ozone
+    clean = ac.earth_atmosphere(ozone=False)
+    np.testing.assert_array_equal(single_scattering(clean, v, s, altitude=12e3),
+                                  single_scattering(clean, v, s, altitude=12e3, method="table"))
 
 
 # ----------------------------------------------------------------------------------------
@@ -526,3 +539,60 @@ def test_convergence_study_smoke(tmp_path):
     for p in paths.values():
         assert p.exists() and p.stat().st_size > 0
     assert len(paths["csv"].read_text().strip().splitlines()) == len(records) + 1
+
+
+def test_wavelength_subset():
+    atm = ac.earth_atmosphere()
+    v = np.array([_dir(z, 30) for z in (0, 60, 85)])
+    full = single_scattering(atm, v, _sun(20))
+    sub = single_scattering(atm, v, _sun(20), wavelengths=[440.0, 680.0])
+    # the panel layout depends on the atmosphere's extinction (optical-depth levels), so
+    # the subset agrees to the quadrature accuracy (measured ~3e-8), not bit for bit
+    np.testing.assert_allclose(sub, full[:, [2, 0]], rtol=1e-6)
+    with pytest.raises(ValueError, match="wavelengths"):
+        single_scattering(atm, v, _sun(20), wavelengths=[500.0])
+
+
+def test_random_atmospheres_and_geometries_default_within_1e3():
+    """Seeded sweep: random planets (3e5-3e7 m), thicknesses, coefficients (1e-3-300x
+    Earth's), phase asymmetries, optional ozone-like tent absorber, observers from the
+    ground to space, sun from 12 deg below the horizon to the zenith."""
+    rng = np.random.default_rng(42)
+    for _ in range(25):
+        R = 10 ** rng.uniform(5.5, 7.5)
+        top = R + rng.uniform(2e4, 1.5e5)
+        sc = 10 ** rng.uniform(-3, 2.5)
+        cons = [
+            ac.Constituent("air", tuple(np.array([5.8e-6, 1.36e-5, 3.31e-5]) * sc), 0.0,
+                           ac.ExponentialProfile(rng.uniform(3e3, 1.2e4)), ac.RayleighPhase()),
+            ac.Constituent("haze", tuple(np.full(3, 4e-6 * sc * rng.uniform(0.1, 10))),
+                           tuple(np.full(3, 4e-7 * sc)), ac.ExponentialProfile(rng.uniform(3e2, 3e3)),
+                           ac.HenyeyGreensteinPhase(rng.uniform(0.0, 0.95))),
+        ]
+        if rng.random() < 0.5:
+            k = (top - R) / 6e4
+            cons.append(ac.Constituent("oz", 0.0, tuple(np.array([6e-7, 1.9e-6, 1e-7]) * rng.uniform(0.1, 10)),
+                                       ac.TentProfile(25e3 * k, 15e3 * k), ac.RayleighPhase()))
+        atm = ac.Atmosphere(R, top, (680.0, 550.0, 440.0), tuple(cons))
+        alt = rng.choice([0.0, rng.uniform(0, top - R), top - R, rng.uniform(top - R, 5e5)])
+        s = _sun(rng.uniform(-12, 90), rng.uniform(0, 360))
+        v = rng.normal(size=(20, 3))
+        ref = single_scattering(atm, v, s, altitude=alt, method="reference", rtol=1e-7)
+        got = single_scattering(atm, v, s, altitude=alt)
+        _check_sane(got)
+        big = ref > 1e-15  # far below any visible sky (daylight ~1e-2, deep twilight ~1e-9)
+        assert np.all(got[ref == 0] == 0)
+        assert _max_rel(got[big], ref[big]) < 1e-3
+
+
+def test_vacuum_and_finely_tabulated_profile():
+    vac = ac.Atmosphere(6.371e6, 6.431e6, (550.0,), ())
+    v = np.array([_dir(0, 0), _dir(80, 30)])
+    assert np.all(single_scattering(vac, v, _sun(20)) == 0)
+    # US Standard Atmosphere 1976 (a log-linear table with ~90 kinks): the default still
+    # splits at every kink and agrees with the reference
+    prof = ac.us_standard_1976_profile()
+    atm = ac.Atmosphere(6.371e6, 6.371e6 + 86e3, (440.0,), (
+        ac.Constituent("air", 3.31e-5, 0.0, prof, ac.RayleighPhase()),))
+    ref = single_scattering(atm, v, _sun(20), method="reference", rtol=1e-7)
+    np.testing.assert_allclose(single_scattering(atm, v, _sun(20)), ref, rtol=1e-4)

@@ -581,3 +581,17 @@ def test_public_api_and_registry():
     assert ac.sun_position is S.sun_position and ac.sunrise_sunset is S.sunrise_sunset
     for name in S.__all__:
         assert hasattr(ac, name)
+
+
+def test_iso_strings_with_offsets_are_converted_to_utc_without_warnings():
+    # The same instant written four ways (ISO 8601: 'Z' and ±hh:mm designate UTC offsets).
+    import warnings
+
+    forms = ["2024-06-21T09:00:00", "2024-06-21T09:00:00Z", "2024-06-21T11:00:00+02:00",
+             "2024-06-21T04:00:00-05:00"]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        z = [float(S.sun_position(f, 51.4779, -0.0015).zenith) for f in forms]
+        arr = S.sun_position(np.array(forms), 51.4779, -0.0015).zenith
+    assert max(z) - min(z) == 0.0
+    np.testing.assert_array_equal(arr, z[0])

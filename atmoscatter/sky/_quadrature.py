@@ -91,6 +91,9 @@ class PreparedAtmosphere:
     extinction: np.ndarray  # (G, n_wl) [m^-1] at relative density 1
     scatterers: list  # (group index, scattering (n_wl,), phase callable)
 
+    tau_levels: np.ndarray = None  # altitudes [m] where the vertical optical depth is e^j
+    grazing_levels: np.ndarray = None  # same for the optical depth of a grazing ray
+
     def density(self, g: int, altitude: np.ndarray) -> np.ndarray:
         """Relative density of group ``g`` at ``altitude`` [m], clipped to the atmosphere."""
         h = np.clip(altitude, 0.0, self.top_radius - self.planet_radius)
@@ -143,7 +146,7 @@ def prepare_atmosphere(atmosphere) -> PreparedAtmosphere:
         scales.append(min(s, thickness))
         b = np.asarray(getattr(p, "breakpoints", ()), dtype=float).ravel()
         bps.append(np.unique(b[(b > 0) & (b < thickness)]))
-    return PreparedAtmosphere(
+    prep = PreparedAtmosphere(
         planet_radius=R,
         top_radius=top,
         n_wavelengths=nwl,
@@ -153,6 +156,44 @@ def prepare_atmosphere(atmosphere) -> PreparedAtmosphere:
         extinction=np.asarray(ext, dtype=float).reshape(len(profiles), nwl),
         scatterers=scatterers,
     )
+    prep.tau_levels = _optical_depth_levels(prep)
+    # a ray grazing at altitude h has ~ sqrt(2π r/H) times the vertical optical depth above h
+    hmin = float(np.min(prep.scales)) if prep.profiles else 1.0
+    prep.grazing_levels = _optical_depth_levels(prep, np.sqrt(2.0 * np.pi * R / hmin), 60.0)
+    return prep
+
+
+def _optical_depth_levels(
+    atm: PreparedAtmosphere, factor: float = 1.0, tau_max: float = 30.0
+) -> np.ndarray:
+    """Altitudes where ``factor`` × the vertical optical depth above (largest over
+    wavelengths) is ``e^j`` (j = −9 … −1), then ``(1 + k/2)²`` up to ``tau_max``.
+
+    Along any ray the transmittance changes by a factor ~e between consecutive levels,
+    wherever the atmosphere is optically thick; making their crossings panel
+    boundaries samples a thick atmosphere uniformly in optical depth (where the
+    geometric grading alone would put panels of tens of scale heights).
+    """
+    thick = atm.top_radius - atm.planet_radius
+    if not atm.profiles:
+        return np.zeros(0)
+    hmin = float(np.min(atm.scales))
+    n = int(min(20000, max(2000, 40 * thick / hmin)))
+    h = thick * (np.linspace(0.0, 1.0, n) ** 1.5)
+    k = np.zeros(n)
+    for g in range(len(atm.profiles)):
+        k = k + atm.density(g, h) * float(np.max(atm.extinction[g]))
+    seg = 0.5 * (k[1:] + k[:-1]) * np.diff(h)
+    tau_above = factor * np.concatenate([np.cumsum(seg[::-1])[::-1], [0.0]])  # decreasing
+    # e-folds up to τ = 1, then steps of ~√τ (the width of the peak of e^{−τ} × growth),
+    # up to τ_max (beyond, e^{−τ} < 1e-13 of the light is left)
+    targets = np.concatenate([np.exp(np.arange(-9.0, 0.0)), (1.0 + 0.5 * np.arange(0, 40)) ** 2])
+    targets = targets[targets <= tau_max]
+    targets = targets[(targets < tau_above[0]) & (targets > 0)]
+    if targets.size == 0:
+        return np.zeros(0)
+    # tau_above decreases with h: interpolate h(tau) on the reversed arrays
+    return np.interp(targets, tau_above[::-1], h[::-1])
 
 
 # ----------------------------------------------------------------------------------------

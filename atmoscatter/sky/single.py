@@ -7,9 +7,10 @@ single_scattering
     arbitrary view directions, for an observer anywhere (ground, inside, top, space).
 SINGLE_SCATTERING_METHODS
     Registry of the quadrature methods (drives validation and the docs).
-DEFAULT_SINGLE_SCATTERING_METHOD, DEFAULT_SINGLE_SCATTERING_SAMPLES
-    The default method and its sample count (chosen from the convergence study in
-    ``docs/convergence.md``).
+DEFAULT_SINGLE_SCATTERING_METHOD, DEFAULT_SINGLE_SCATTERING_SAMPLES, TABLE_THRESHOLD
+    The default method, its sample count (chosen from the convergence study in
+    ``docs/convergence.md``) and the batch size from which the default may use the
+    symmetric table path.
 ConvergenceWarning
     Emitted when ``method="reference"`` cannot reach the requested ``rtol``.
 
@@ -40,7 +41,9 @@ References
 from __future__ import annotations
 
 import os
+import threading
 import warnings
+from collections import OrderedDict
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
@@ -65,8 +68,10 @@ class ConvergenceWarning(UserWarning):
 DEFAULT_SINGLE_SCATTERING_METHOD: str = "graded"
 """Default method of :func:`single_scattering` (see ``docs/convergence.md``).  With
 ``method=None`` large batches (≥ :data:`TABLE_THRESHOLD` directions) seen by an observer
-inside the atmosphere, with the sun above the observer's ground horizon, use ``"table"``
-instead (no planet shadow can then fall on a view path; measured error in the docs)."""
+inside the atmosphere, with the sun above the observer's ground horizon and no profile
+breakpoint (e.g. the ozone layer's lower edge) below the observer, use ``"table"``
+instead: no planet shadow can then fall on a view path and the table's error is
+measured below 1e-4 (``docs/convergence.md``)."""
 
 TABLE_THRESHOLD: int = 4096
 """Number of directions from which ``method=None`` may switch to the ``"table"`` path."""
@@ -140,6 +145,8 @@ class _Batch:
 
 def _combine(atm, rho, weights, lview, lsun, lit):
     """``J_g = Σ_nodes w ρ_g T lit`` with ``T = exp(−Σ_j β_e,j (L_view + L_sun))``."""
+    if not rho:  # no constituents: nothing scatters
+        return np.zeros((0, weights.shape[0], atm.n_wavelengths))
     tau = np.zeros(weights.shape + (atm.n_wavelengths,))
     for g in range(len(rho)):
         tau += (lview[g] + lsun[g])[..., None] * atm.extinction[g]
@@ -205,11 +212,11 @@ def _extinction_scale(atm: qd.PreparedAtmosphere, p2: np.ndarray, sigma: np.ndar
 def _graded_view_bounds(batch: _Batch, m: int) -> np.ndarray:
     """Panel boundaries along the view ray (perigee coordinates), sorted.
 
-    Three geometric gradings are merged: from the ray's lowest point (both ways), from
-    the start of the path (the observer or the entry point) and from the exit of the
-    planet's shadow.  Each starts with a panel no longer than the local density scale
-    and the local extinction length ``1/β_e``.  Shadow edges and profile breakpoints
-    are panel boundaries too.
+    Geometric gradings are merged: from the ray's lowest point (both ways), from the start
+    of the path (the observer or the entry point), forward from the exit of the planet's
+    shadow and backward from its entry.  Each starts with a panel no longer than the local
+    density scale and the local extinction length ``1/β_e``.  Shadow edges, profile
+    breakpoints and the optical-depth levels of the atmosphere are panel boundaries too.
     """
     atm = batch.atm
     sa, sb, p2 = batch.sa, batch.sb, batch.p2
@@ -220,12 +227,19 @@ def _graded_view_bounds(batch: _Batch, m: int) -> np.ndarray:
     sh_hi = hi_t + batch.s0
     has_exit = np.isfinite(sh_hi) & (sh_hi > sa) & (sh_hi < sb) & (sh_lo < sh_hi)
     e = np.where(has_exit, sh_hi, sb)
+    has_entry = np.isfinite(sh_lo) & (sh_lo > sa) & (sh_lo < sb) & (sh_lo < sh_hi)
+    f = np.where(has_entry, sh_lo, sa)
 
     def scale(x):
         return np.minimum(qd.local_scale(hmin, x, p2), _extinction_scale(atm, p2, x))
 
-    ell_c, ell_a, ell_e = scale(c), scale(sa), scale(e)
-    ratios = [np.maximum(sb - c, c - sa) / ell_c, (sb - sa) / ell_a, (sb - e) / ell_e]
+    ell_c, ell_a, ell_e, ell_f = scale(c), scale(sa), scale(e), scale(f)
+    ratios = [
+        np.maximum(sb - c, c - sa) / ell_c,
+        (sb - sa) / ell_a,
+        (sb - e) / ell_e,
+        (f - sa) / ell_f,
+    ]
     span = max(float(np.max(r)) for r in ratios) if sa.size else 0.0
     k = qd.n_geometric_panels(span, m)
     d = qd.geometric_offsets(m, k)[1:]
@@ -234,6 +248,7 @@ def _graded_view_bounds(batch: _Batch, m: int) -> np.ndarray:
         c[:, None] - ell_c[:, None] * d,
         sa[:, None] + ell_a[:, None] * d,
         e[:, None] + ell_e[:, None] * d,
+        f[:, None] - ell_f[:, None] * d,
         np.stack([sh_lo, sh_hi], axis=-1),
     ]
     bps = np.unique(np.concatenate([b for b in atm.breakpoints] + [np.zeros(0)]))
@@ -245,6 +260,18 @@ def _graded_view_bounds(batch: _Batch, m: int) -> np.ndarray:
         # has a derivative singularity: make those points panel boundaries as well
         for radius in rb:
             lo_b, hi_b = qd.shadow_interval(batch.r0, batch.v, batch.s, float(radius))
+            cuts.append(np.stack([lo_b + batch.s0, hi_b + batch.s0], axis=-1))
+    if atm.tau_levels is not None and atm.tau_levels.size:
+        rl = atm.planet_radius + atm.tau_levels
+        sq = np.sqrt(np.maximum(rl * rl - p2[:, None], 0.0))
+        cuts += [sq, -sq]
+    if atm.grazing_levels is not None and atm.grazing_levels.size and np.any(
+        has_exit | has_entry
+    ):
+        # near the shadow the sun's transmittance changes as fast as the optical depth of
+        # the sun ray grazing at its perigee: split where the perigee crosses those levels
+        for h in atm.grazing_levels:
+            lo_b, hi_b = qd.shadow_interval(batch.r0, batch.v, batch.s, atm.planet_radius + h)
             cuts.append(np.stack([lo_b + batch.s0, hi_b + batch.s0], axis=-1))
     bounds = np.concatenate(cuts, axis=-1)
     bounds = np.where(np.isfinite(bounds), bounds, sa[:, None])
@@ -314,6 +341,9 @@ _TWO_OVER_PI = 2.0 / np.pi
 class _SkyTable:
     """``J_g(μ, φ)`` of an observer inside a horizontally uniform atmosphere.
 
+    (``values``, if given, replaces ``J_g`` by any smooth function of the direction with
+    the same symmetry, returning (n_values, N, n_wl); multiple scattering uses it.)
+
     The phase-free integrals ``J_g`` depend only on the view zenith cosine ``μ`` and the
     azimuth ``φ`` relative to the sun, and are even in ``φ`` (the sky is symmetric about
     the solar vertical).  They are computed with the graded rule at Chebyshev nodes in
@@ -326,15 +356,37 @@ class _SkyTable:
     queries read bilinearly.
     """
 
-    def __init__(self, atm, r0, s, n_mu, n_phi, q, fine=(1025, 257)):
+    def __init__(
+        self, atm, r0, s, n_mu, n_phi, q, fine=None, values=None, n_values=None, linear=False
+    ):
         R = atm.planet_radius
         self.atm, self.r0 = atm, r0
-        # only profile groups that scatter contribute (absorbers enter through J of others)
-        self.groups = sorted({g for g, _, _ in atm.scatterers})
+        if values is None:
+            # only profile groups that scatter contribute (absorbers enter through J of
+            # the others)
+            self.groups = sorted({g for g, _, _ in atm.scatterers})
+
+            def values(v):
+                J = _evaluate_J(atm, r0, v, s, lambda b: _graded(b, q), _graded_cost(q))
+                return J[self.groups]
+
+            n_values = len(self.groups)
+        else:
+            self.groups = list(range(int(n_values)))
+        self._values = values
         self.mu_h = -np.sqrt(max(0.0, 1.0 - (R / r0) ** 2)) if r0 > R else 0.0
         sh = np.hypot(s[0], s[1])
         self.sun_az = np.arctan2(s[0], s[1]) if sh > 0 else 0.0
         self.has_ground = r0 > R * (1.0 + 1e-12)
+        channels = len(self.groups) * atm.n_wavelengths
+        if fine is None:
+            # ~64 MB at most for the resampled table (spectral runs have many channels)
+            fine = (1025, 257) if channels <= 16 else (513, 129)
+        self.dtype = np.float64 if channels <= 16 else np.float32
+        if linear:
+            # values with kinks (e.g. multilinearly interpolated fields): sample the
+            # uniform grid directly and interpolate bilinearly, no polynomial resampling
+            fine = (n_mu, n_phi)
         cphi = np.cos(np.pi * np.arange(n_phi) / (n_phi - 1))[::-1]  # Lobatto, increasing
         wphi = (-1.0) ** np.arange(n_phi) * 1.0
         wphi[[0, -1]] *= 0.5
@@ -345,6 +397,11 @@ class _SkyTable:
         mphi = _bary_matrix(cphi, wphi, cf)
         un = _cheb_nodes01(n_mu)
         mu_nodes = _bary_matrix(un, _bary_weights_cheb1(n_mu), uf)
+        self.linear = linear
+        if linear:
+            # nodes uniform in φ (w = 1 − 2φ/π), which the lookup then uses
+            cphi, un = np.cos(0.5 * np.pi * (1.0 - cf)), uf
+            mphi, mu_nodes = np.eye(nc_f), np.eye(nu_f)
         self.fine_sky = self._build(
             self.mu_h + (1.0 - self.mu_h) * np.sin(0.5 * np.pi * un) ** 2, cphi, s, q, mu_nodes, mphi
         )
@@ -352,6 +409,8 @@ class _SkyTable:
             ng = max(8, n_mu // 2)
             ug = _cheb_nodes01(ng)
             mg = _bary_matrix(ug, _bary_weights_cheb1(ng), uf)
+            if linear:
+                ug, mg = uf, np.eye(nu_f)
             self.fine_ground = self._build(
                 self.mu_h - (1.0 + self.mu_h) * np.sin(0.5 * np.pi * ug) ** 2, cphi, s, q, mg, mphi
             )
@@ -362,13 +421,13 @@ class _SkyTable:
         sin_t = np.sqrt(np.maximum(1.0 - mm * mm, 0.0))
         az = self.sun_az + pp
         v = np.stack([sin_t * np.sin(az), sin_t * np.cos(az), mm], axis=-1).reshape(-1, 3)
-        J = _evaluate_J(self.atm, self.r0, v, s, lambda b: _graded(b, q), _graded_cost(q))
-        J = J[self.groups]
+        J = self._values(v)
         G, nwl = J.shape[0], J.shape[-1]
         J = J.reshape(G, len(mus), len(cphi), nwl)
         # fine[g, i, j, w] = Σ_a Σ_b mmu[i, a] J[g, a, b, w] mphi[j, b]
         fine = np.einsum("ia,gabw,jb->ijgw", mmu, J, mphi, optimize=True)
-        return np.ascontiguousarray(np.maximum(fine, 0.0).reshape(len(mmu), len(mphi), G * nwl))
+        fine = np.maximum(fine, 0.0).reshape(len(mmu), len(mphi), G * nwl)
+        return np.ascontiguousarray(fine, dtype=self.dtype)
 
     def _lookup(self, fine, u, c):
         """Bilinear interpolation; ``fine`` is (nu_f, nc_f, K) with all channels last."""
@@ -380,9 +439,9 @@ class _SkyTable:
         fy = (y - j)[:, None]
         flat = fine.reshape(-1, fine.shape[-1])
         k = i * self.nc_f + j
-        a = np.take(flat, k, axis=0)
+        a = np.take(flat, k, axis=0).astype(float)
         a += (np.take(flat, k + self.nc_f, axis=0) - a) * fx
-        b = np.take(flat, k + 1, axis=0)
+        b = np.take(flat, k + 1, axis=0).astype(float)
         b += (np.take(flat, k + self.nc_f + 1, axis=0) - b) * fx
         a += (b - a) * fy
         return a
@@ -394,6 +453,8 @@ class _SkyTable:
         ca, sa = np.cos(self.sun_az), np.sin(self.sun_az)
         c = np.where(h > 0, (v[:, 0] * sa + v[:, 1] * ca) / np.where(h > 0, h, 1.0), 1.0)
         c = np.clip(c, -1.0, 1.0)
+        if self.linear:
+            c = 1.0 - 2.0 / np.pi * np.arccos(c)
         G, nwl = len(self.groups), self.atm.n_wavelengths
         out = np.zeros((v.shape[0], G * nwl))
         sky = mu >= self.mu_h
@@ -417,11 +478,36 @@ def _table_size(samples: int) -> tuple[int, int]:
     return n, 17
 
 
-def _table_radiance(atm, r0, v, s, samples, q=4, chunk=1 << 15):
+_TABLE_CACHE: OrderedDict = OrderedDict()
+_TABLE_CACHE_MAX = 4
+_TABLE_LOCK = threading.Lock()
+
+
+def _cached_table(atmosphere, atm, r0, s, n_mu, n_phi, q):
+    """Tables are reused across calls with the same atmosphere, observer and sun (a renderer
+    evaluating one sky in many batches, possibly from several threads, builds it once)."""
+    try:
+        key = (atmosphere, float(r0), tuple(float(x) for x in s), n_mu, n_phi, q)
+        hash(key)
+    except TypeError:
+        return _SkyTable(atm, r0, s, n_mu, n_phi, q)
+    with _TABLE_LOCK:
+        table = _TABLE_CACHE.get(key)
+        if table is None:
+            table = _SkyTable(atm, r0, s, n_mu, n_phi, q)
+            _TABLE_CACHE[key] = table
+            while len(_TABLE_CACHE) > _TABLE_CACHE_MAX:
+                _TABLE_CACHE.popitem(last=False)
+        else:
+            _TABLE_CACHE.move_to_end(key)
+    return table
+
+
+def _table_radiance(atmosphere, atm, r0, v, s, samples, q=4, chunk=1 << 15):
     """Radiance through :class:`_SkyTable`, in chunks spread over a small thread pool
     (NumPy releases the GIL in the gathers and arithmetic)."""
     n_mu, n_phi = _table_size(samples)
-    table = _SkyTable(atm, r0, s, n_mu, n_phi, q)
+    table = _cached_table(atmosphere, atm, r0, s, n_mu, n_phi, q)
     out = np.empty((v.shape[0], atm.n_wavelengths))
     sub = atm.scatterers
 
@@ -460,8 +546,10 @@ SINGLE_SCATTERING_METHODS: dict[str, str] = {
     ),
     "table": (
         "Observer inside the atmosphere only: 'graded' (order 4) at Chebyshev nodes in "
-        "sqrt(mu - mu_horizon) × Lobatto nodes in cos(relative azimuth), interpolated; the "
-        "exact phase functions are applied per direction.  samples = nodes in mu."
+        "asin(sqrt(mu - mu_horizon)) × Lobatto nodes in cos(relative azimuth), "
+        "interpolated; the exact phase functions are applied per direction.  samples = "
+        "nodes in mu.  Accurate (< 1e-4 measured) only where the sky is smooth: not in "
+        "twilight (planet shadow) nor above a profile breakpoint (ozone layer edge)."
     ),
     "reference": (
         "'graded' refined level by level (more panels, higher order) until successive levels "
@@ -484,13 +572,14 @@ def _unit_vectors(value, name: str) -> tuple[np.ndarray, np.ndarray]:
     arr = as_float_array(value, name)
     if arr.ndim < 1 or arr.shape[-1] != 3:
         raise ValueError(f"{name} must have shape (..., 3), got shape {arr.shape}")
-    a = arr.astype(float)
-    norm = np.sqrt(np.sum(a * a, axis=-1))
-    finite = np.all(np.isfinite(a), axis=-1)
+    a = arr.astype(float)  # the one copy of the input (normalised in place)
+    norm = np.atleast_1d(np.sqrt(np.einsum("...i,...i->...", a, a)))
+    finite = np.isfinite(norm)
     if np.any(finite & (norm == 0)):
         raise ValueError(f"{name} must be non-zero vectors (unit vectors are expected)")
-    safe = np.where(finite & (norm > 0), norm, 1.0)
-    return a / safe[..., None], finite
+    norm[~finite | (norm == 0)] = 1.0
+    a /= norm.reshape(a.shape[:-1] + (1,))
+    return a, finite.reshape(a.shape[:-1])
 
 
 def _prepare_inputs(atmosphere, view_directions, sun_direction, altitude):
@@ -517,7 +606,9 @@ def _evaluate_J(atm, r0, v, s, fn, cost, batch_size=None):
     n = v.shape[0]
     out = np.zeros((len(atm.profiles), n, atm.n_wavelengths))
     if batch_size is None:
-        batch_size = max(8, int(_NODE_BUDGET // max(cost, 1)))
+        # the per-node temporaries carry one value per wavelength
+        scale = max(1.0, atm.n_wavelengths / 3.0)
+        batch_size = max(8, int(_NODE_BUDGET // max(cost * scale, 1)))
     for i in range(0, n, batch_size):
         b = _Batch(atm, r0, v[i : i + batch_size], s)
         active = b.sb > b.sa
@@ -567,12 +658,41 @@ def _reference(atm, r0, v, s, rtol):
     return result
 
 
+def _select_wavelengths(atmosphere, wavelengths):
+    """The atmosphere restricted to ``wavelengths`` (each must be one of its own)."""
+    import dataclasses
+
+    own = np.asarray(atmosphere.wavelengths_array, dtype=float)
+    want = np.atleast_1d(as_float_array(wavelengths, "wavelengths")).astype(float).ravel()
+    idx = []
+    for w in want:
+        hit = np.nonzero(np.isclose(own, w, rtol=0.0, atol=1e-6))[0]
+        if hit.size == 0:
+            raise ValueError(
+                f"wavelengths must be among the atmosphere's wavelengths {own.tolist()} nm "
+                f"(build the atmosphere for others), got {w!r}"
+            )
+        idx.append(int(hit[0]))
+    cons = tuple(
+        dataclasses.replace(
+            c,
+            scattering=tuple(np.asarray(c.scattering_array)[idx].tolist()),
+            absorption=tuple(np.asarray(c.absorption_array)[idx].tolist()),
+        )
+        for c in atmosphere.constituents
+    )
+    return dataclasses.replace(
+        atmosphere, wavelengths=tuple(own[idx].tolist()), constituents=cons
+    )
+
+
 def single_scattering(
     atmosphere,
     view_directions,
     sun_direction,
     *,
     altitude=0.0,
+    wavelengths=None,
     method: str | None = None,
     rtol: float | None = None,
     samples: int | None = None,
@@ -600,6 +720,10 @@ def single_scattering(
         Observer altitude above the surface [m], ≥ 0.  Above ``top_radius −
         planet_radius`` the observer is in space: rays missing the atmosphere give 0,
         others are integrated from where they enter.
+    wavelengths : array_like, optional
+        Subset of the atmosphere's wavelengths [nm] to compute (default: all of them,
+        e.g. the RGB sample wavelengths of the presets).  Coefficients exist only at the
+        atmosphere's own wavelengths; build the atmosphere for others.
     method : str, optional
         One of :data:`SINGLE_SCATTERING_METHODS`; ``None`` selects
         :data:`DEFAULT_SINGLE_SCATTERING_METHOD` with its default samples, measured to
@@ -631,6 +755,8 @@ def single_scattering(
     default is within 1e-3 (measured max relative error; see ``docs/convergence.md``);
     ``"reference"`` converges to ``rtol``.
     """
+    if wavelengths is not None:
+        atmosphere = _select_wavelengths(atmosphere, wavelengths)
     auto = method is None
     if auto:
         method = DEFAULT_SINGLE_SCATTERING_METHOD
@@ -641,11 +767,15 @@ def single_scattering(
     lead = v.shape[:-1]
     vf = v.reshape(-1, 3)
     fin = finite.reshape(-1)
-    vf = np.where(fin[:, None], vf, np.array([0.0, 0.0, 1.0]))
+    if not np.all(fin):
+        vf[~fin] = (0.0, 0.0, 1.0)  # placeholder, NaN is restored below
     r0 = atm.planet_radius + alt
     if auto and samples is None and vf.shape[0] >= TABLE_THRESHOLD and r0 <= atm.top_radius:
         dip = np.sqrt(max(0.0, 1.0 - (atm.planet_radius / r0) ** 2))
-        if s[2] >= dip:
+        # a profile breakpoint below the observer puts kinks into J(μ) (view rays whose
+        # perigee crosses it); the polynomial table is then not accurate enough
+        kinks_below = any(np.any(b < alt) for b in atm.breakpoints)
+        if s[2] >= dip and not kinks_below:
             method = "table"
     if method == "reference":
         tol = 1e-6 if rtol is None else float(check_range(rtol, "rtol", 1e-12, 0.1))
@@ -661,7 +791,7 @@ def single_scattering(
                     "method='table' needs an observer inside the atmosphere "
                     f"(altitude <= {atm.top_radius - atm.planet_radius} m), got altitude={alt}"
                 )
-            out = _table_radiance(atm, r0, vf, s, n)
+            out = _table_radiance(atmosphere, atm, r0, vf, s, n)
         elif method == "graded":
             J = _evaluate_J(atm, r0, vf, s, lambda b: _graded(b, n), _graded_cost(n), batch_size)
         else:
@@ -673,5 +803,7 @@ def single_scattering(
             )
         if method != "table":
             out = _radiance_from_J(atm, J, vf, s)
-    out = np.where(fin[:, None], np.maximum(out, 0.0), np.nan)
-    return out.reshape(lead + (atm.n_wavelengths,)).astype(out_dtype)
+    np.maximum(out, 0.0, out=out)
+    if not np.all(fin):
+        out[~fin] = np.nan
+    return out.reshape(lead + (atm.n_wavelengths,)).astype(out_dtype, copy=False)
