@@ -84,8 +84,8 @@ def _iso(t):
     return str(np.datetime64(t, "s")) + "Z"
 
 
-#: Scattering orders of the multiple-scattering reference (its docstring: 6 orders leave
-#: < 0.1 % truncation error in clear Earth skies, thicker atmospheres need more).  Measured
+#: Scattering orders of the multiple-scattering reference (fixed, so the report is
+#: reproducible; the library default ``orders=None`` converges to 1e-4 instead).  Measured
 #: here at T = 6, sun 10°: orders 12 differ from 30 by ≤ 0.32 %, orders 20 by ≤ 4e-5.
 REFERENCE_ORDERS = 20
 

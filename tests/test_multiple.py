@@ -50,6 +50,28 @@ def test_orders_add_light_and_converge():
     assert np.all(out[4][~sky] == 0)
 
 
+def test_default_orders_converge_to_the_tolerance():
+    # orders=None keeps adding orders until the estimated omitted tail is below
+    # order_tolerance; check against many more orders (an independent, brute-force count)
+    # in an atmosphere 4x thicker than the thin case, where a fixed 6 orders is visibly low.
+    atm = _atm(scale=4.0)
+    auto = multiple_scattering(atm, _V, _S, ground_albedo=0.3)
+    many = multiple_scattering(atm, _V, _S, orders=60, ground_albedo=0.3)
+    six = multiple_scattering(atm, _V, _S, orders=6, ground_albedo=0.3)
+    sky = _V[:, 2] >= 0
+    np.testing.assert_allclose(auto[sky], many[sky], rtol=2e-4)
+    assert np.max(np.abs(six[sky] / many[sky] - 1)) > 1e-3  # the old fixed default was not
+
+
+def test_default_orders_warn_when_the_cap_is_reached(monkeypatch):
+    from atmoscatter.sky import multiple as M
+
+    monkeypatch.setattr(M, "_MAX_AUTO_ORDERS", 3)
+    monkeypatch.setattr(M, "_CACHE", {})
+    with pytest.warns(RuntimeWarning, match="after 3 orders"):
+        multiple_scattering(_atm(scale=4.0), _V, _S, order_tolerance=1e-12)
+
+
 def test_ground_albedo_brightens_the_sky():
     atm = _atm()
     dark = multiple_scattering(atm, _V[:4], _S, orders=6, ground_albedo=0.0)
@@ -78,6 +100,7 @@ def test_observer_in_space_and_shapes():
     "kwargs, exc, match",
     [
         ({"orders": 0}, ValueError, "orders"),
+        ({"order_tolerance": 0.0}, ValueError, "order_tolerance"),
         ({"ground_albedo": 1.5}, ValueError, "ground_albedo"),
         ({"grid": (10, 10)}, TypeError, "grid"),
     ],
