@@ -70,8 +70,6 @@ from __future__ import annotations
 import json
 import math
 import os
-import struct
-import zlib
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -301,11 +299,11 @@ class Comparison:
             _write_png(paths["delta_e_map"], _sequential(self.delta_e_map, DELTA_E_MAP_RANGE))
         data = self.to_dict()
         data["files"] = {k: os.path.basename(v) for k, v in paths.items()}
-        tmp = paths["summary"] + ".tmp"
-        with open(tmp, "w", encoding="utf-8") as fh:
+        from .exr import atomic_write
+
+        with atomic_write(paths["summary"]) as tmp, open(tmp, "w", encoding="utf-8") as fh:
             json.dump(_jsonable(data), fh, indent=2, sort_keys=False, allow_nan=False)
             fh.write("\n")
-        os.replace(tmp, paths["summary"])
         return paths
 
 
@@ -460,22 +458,9 @@ def _sequential(values, vmax):
 
 
 def _write_png(path, pixels):
-    p = np.ascontiguousarray(pixels, dtype=np.uint8)
-    h, w, c = p.shape
-    raw = np.concatenate([np.zeros((h, 1), dtype=np.uint8), p.reshape(h, w * c)], axis=1)
+    from .preview import write_png
 
-    def chunk(tag, data):
-        body = tag + data
-        return struct.pack(">I", len(data)) + body + struct.pack(">I", zlib.crc32(body))
-
-    png = (b"\x89PNG\r\n\x1a\n"
-           + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, {3: 2, 4: 6}[c], 0, 0, 0))
-           + chunk(b"IDAT", zlib.compress(raw.tobytes(), 6))
-           + chunk(b"IEND", b""))
-    tmp = os.fspath(path) + ".tmp"
-    with open(tmp, "wb") as fh:
-        fh.write(png)
-    os.replace(tmp, path)
+    return write_png(path, pixels)
 
 
 # --------------------------------------------------------------------------------------
@@ -521,27 +506,12 @@ class SkyMap:
 
 
 def _read_exr_channels(path):
-    import OpenEXR
+    from .exr import read_exr
 
-    path = os.fspath(path)
-    if not os.path.isfile(path):
-        raise ValueError(f"{path!r} does not exist or is not a file")
-    try:
-        with OpenEXR.File(path) as f:
-            header = dict(f.header())
-            chans = {}
-            for name, ch in f.channels().items():
-                px = np.asarray(ch.pixels)
-                if px.ndim == 3 and name in ("RGB", "RGBA"):
-                    for i, c in enumerate(name):
-                        chans[c] = px[..., i]
-                else:
-                    chans[name] = px
-    except Exception as exc:  # OpenEXR raises several exception types for bad files
-        raise ValueError(f"{path!r} is not a readable OpenEXR file ({exc})") from None
-    if not chans:
-        raise ValueError(f"{path!r} has no image channels")
-    return chans, header
+    img = read_exr(path)
+    if not img.channels:
+        raise ValueError(f"{os.fspath(path)!r} has no image channels")
+    return img.channels, img.header
 
 
 def _spectral_channels(chans):

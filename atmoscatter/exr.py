@@ -251,8 +251,8 @@ def read_exr(path) -> ExrImage:
     import OpenEXR  # noqa: PLC0415
 
     path = os.fspath(path)
-    if not os.path.exists(path):
-        raise ValueError(f"{path!r} does not exist")
+    if not os.path.isfile(path):
+        raise ValueError(f"{path!r} does not exist or is not a file")
     try:
         with OpenEXR.File(path) as f:
             header = dict(f.header())
