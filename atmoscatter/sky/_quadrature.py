@@ -59,6 +59,23 @@ def integration_matrix_unit(q: int) -> np.ndarray:
     return (iv @ np.linalg.inv(vander)) / 2.0
 
 
+def cumulative_panel_integral(plen: np.ndarray, values: np.ndarray, q: int):
+    """Running integral of ``values`` along Gauss–Legendre panels.
+
+    ``plen`` (n, P) are panel lengths and ``values`` (n, P, q) the integrand at each panel's
+    q nodes.  Returns ``(cum, total)``: ``cum`` (n, P·q) is the integral from the start of
+    the path to every node (whole earlier panels plus the part of the node's own panel,
+    via :func:`integration_matrix_unit`), ``total`` (n,) the integral over the whole path.
+    """
+    smat = integration_matrix_unit(q)
+    _, wq = gauss_legendre_unit(q)
+    panel = plen * (values @ wq)
+    before = np.cumsum(panel, axis=-1) - panel
+    inside = plen[..., None] * np.einsum("kj,npj->npk", smat, values)
+    n, npan = plen.shape
+    return (before[..., None] + inside).reshape(n, npan * q), np.sum(panel, axis=-1)
+
+
 @lru_cache(maxsize=64)
 def power_midpoint_unit(n: int, power: float) -> tuple[np.ndarray, np.ndarray]:
     """Seed 002 non-equidistant midpoint rule: cells ``[(i/n)^p, ((i+1)/n)^p]``.

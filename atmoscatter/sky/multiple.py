@@ -129,20 +129,15 @@ def _march(atm: qd.PreparedAtmosphere, r0: float, v: np.ndarray, s: np.ndarray, 
     sigma, weights, plen = qd.panel_rule(bounds, q)
     npan = plen.shape[1]
     h = b.altitude(sigma)
-    smat = qd.integration_matrix_unit(q)
-    _, wq = qd.gauss_legendre_unit(q)
     tau = np.zeros(sigma.shape + (nwl,))
     tau_end = np.zeros((n, nwl))
     rho = []
     for g in range(len(atm.profiles)):
         r = atm.density(g, h)
         rho.append(r)
-        rp = r.reshape(n, npan, q)
-        panel = plen * (rp @ wq)
-        before = np.cumsum(panel, axis=-1) - panel
-        inside = plen[..., None] * np.einsum("kj,npj->npk", smat, rp)
-        tau += (before[..., None] + inside).reshape(n, npan * q)[..., None] * atm.extinction[g]
-        tau_end += np.sum(panel, axis=-1)[:, None] * atm.extinction[g]
+        cum, total = qd.cumulative_panel_integral(plen, r.reshape(n, npan, q), q)
+        tau += cum[..., None] * atm.extinction[g]
+        tau_end += total[:, None] * atm.extinction[g]
     trans = np.exp(-tau)
     wt = np.empty((n, sigma.shape[1], nsc, nwl))
     for i, (g, beta, _) in enumerate(atm.scatterers):

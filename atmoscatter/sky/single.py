@@ -287,17 +287,11 @@ def _graded(batch: _Batch, samples: int, panels_per_octave: int = 1) -> np.ndarr
     n, npan = plen.shape
     h = batch.altitude(sigma)
     p2_s, sig_s, lit = batch.sun_geometry(sigma)
-    smat = qd.integration_matrix_unit(q)
-    _, wq = qd.gauss_legendre_unit(q)
     rho, lview, lsun = [], [], []
     for g in range(len(atm.profiles)):
         r = atm.density(g, h)
         rho.append(r)
-        rp = r.reshape(n, npan, q)
-        panel = plen * (rp @ wq)
-        before = np.cumsum(panel, axis=-1) - panel
-        inside = plen[..., None] * np.einsum("kj,npj->npk", smat, rp)
-        lview.append((before[..., None] + inside).reshape(n, npan * q))
+        lview.append(qd.cumulative_panel_integral(plen, r.reshape(n, npan, q), q)[0])
         lsun.append(qd.optical_length_to_top(atm, g, p2_s, sig_s, q, m))
     return _combine(atm, rho, weights, lview, lsun, lit)
 
