@@ -251,3 +251,20 @@ class TestArrayDirections:
             ArrayDirections(bad).directions(0, 4)
         with pytest.raises(ValueError, match=r"shape \(\.\.\., 3\)"):
             ArrayDirections(np.ones((3, 2)))
+
+
+def test_unit_vector_check_compiled_and_numpy_agree():
+    # the compiled per-batch check must flag exactly what the NumPy expression flags
+    from atmoscatter.directions import _first_non_unit, _first_non_unit_numpy
+
+    rng = np.random.default_rng(5)
+    d = rng.normal(size=(1000, 3))
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    assert _first_non_unit(d, 2e-6) == _first_non_unit_numpy(d, 2e-6) == -1
+    for idx, bad in [(17, [np.nan, 0.0, 1.0]), (3, [0.0, 0.0, 1.00001]), (999, [np.inf, 0, 0]),
+                     (0, [0.0, 0.0, 0.0])]:
+        e = d.copy()
+        e[idx] = bad
+        assert _first_non_unit(e, 2e-6) == _first_non_unit_numpy(e, 2e-6) == idx
+    # float32 input is checked too (converted, not rejected)
+    assert _first_non_unit(d.astype(np.float32), 2e-6) == -1
