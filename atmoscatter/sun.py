@@ -43,6 +43,7 @@ from __future__ import annotations
 
 import datetime as _dt
 import re
+import threading
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -516,6 +517,44 @@ def _spa_direct(d: np.ndarray, dt_s: np.ndarray) -> dict[str, np.ndarray]:
     return {k: v.reshape(shape) for k, v in out.items()}
 
 
+# Node values depend only on the node's time and ΔT, so runs of _RUN nodes are cached per
+# process (bounded: _RUN_CACHE_MAX runs ≈ 5 MB): repeated calls over the same years — a batch
+# of skies, a notebook — pay for the periodic terms once.
+_RUN_CACHE: dict = {}
+_RUN_CACHE_MAX = 4096
+_RUN_CACHE_LOCK = threading.Lock()
+
+
+def _node_runs(run_ids: np.ndarray, dt_const) -> np.ndarray:
+    """Time terms at the nodes of runs ``run_ids`` (sorted, unique): (n_runs, _RUN, ncol)."""
+    key0 = None if dt_const is None else float(dt_const)
+    out = np.empty((run_ids.size, _RUN, len(_COLUMNS)))
+    with _RUN_CACHE_LOCK:
+        cached = [_RUN_CACHE.get((key0, int(r))) for r in run_ids]
+    missing = np.array([i for i, c in enumerate(cached) if c is None], dtype=np.int64)
+    for i, c in enumerate(cached):
+        if c is not None:
+            out[i] = c
+    runs_per_block = 16  # keeps every complex matrix product single-threaded (see above)
+    for s in range(0, missing.size, runs_per_block):
+        sel = missing[s : s + runs_per_block]
+        ids = (run_ids[sel][:, None] * _RUN + np.arange(_RUN)).ravel()
+        dn = ids * _NODE_STEP
+        dtn = _delta_t_of_year(2000.0 + dn / 365.25) if dt_const is None else np.full(
+            dn.shape, float(dt_const)
+        )
+        vals = _spa_time_terms(dn.astype(np.float64), dtn, run_step=_NODE_STEP)
+        block = np.stack([vals[name] for name in _COLUMNS], axis=-1).reshape(sel.size, _RUN, -1)
+        out[sel] = block
+    if missing.size:
+        with _RUN_CACHE_LOCK:
+            for i in missing:
+                if len(_RUN_CACHE) >= _RUN_CACHE_MAX:
+                    _RUN_CACHE.pop(next(iter(_RUN_CACHE)))
+                _RUN_CACHE[(key0, int(run_ids[i]))] = out[i].copy()
+    return out
+
+
 def _spa_interpolated(d: np.ndarray, dt_const) -> dict[str, np.ndarray] | None:
     """Time terms by cubic interpolation between SPA nodes every ``_NODE_STEP`` days.
 
@@ -549,21 +588,9 @@ def _spa_interpolated(d: np.ndarray, dt_const) -> dict[str, np.ndarray] | None:
     run_ids = np.unique(node_ids // _RUN)
     if run_ids.size * _RUN > 2 * n_finite:
         return None
-    y = np.empty((node_ids.size, len(_COLUMNS)))
-    runs_per_block = 16  # keeps every complex matrix product single-threaded (see above)
-    for s in range(0, run_ids.size, runs_per_block):
-        rid = run_ids[s : s + runs_per_block]
-        ids = (rid[:, None] * _RUN + np.arange(_RUN)).ravel()
-        dn = ids * _NODE_STEP
-        dtn = _delta_t_of_year(2000.0 + dn / 365.25) if dt_const is None else np.full(
-            dn.shape, float(dt_const)
-        )
-        vals = _spa_time_terms(dn.astype(np.float64), dtn, run_step=_NODE_STEP)
-        lo_i = np.searchsorted(node_ids, ids[0])
-        hi_i = np.searchsorted(node_ids, ids[-1], side="right")
-        pick = node_ids[lo_i:hi_i] - ids[0]
-        for j, name in enumerate(_COLUMNS):
-            y[lo_i:hi_i, j] = vals[name][pick]
+    runs = _node_runs(run_ids, dt_const)  # (n_runs, _RUN, ncol), from the cache when possible
+    pos = np.searchsorted(run_ids, node_ids // _RUN)
+    y = runs[pos, node_ids % _RUN]
     row = np.full(span + 3, -1, dtype=np.int64)
     row[node_pos] = np.arange(node_pos.size)
     occ_ids = np.flatnonzero(occ)

@@ -595,3 +595,18 @@ def test_iso_strings_with_offsets_are_converted_to_utc_without_warnings():
         arr = S.sun_position(np.array(forms), 51.4779, -0.0015).zenith
     assert max(z) - min(z) == 0.0
     np.testing.assert_array_equal(arr, z[0])
+
+
+def test_node_cache_gives_identical_results_and_stays_bounded(monkeypatch):
+    # Node values are cached per process; a warm call must reproduce a cold one bit for bit,
+    # for the default ΔT and a given constant ΔT alike, and the cache must respect its bound.
+    monkeypatch.setattr(S, "_RUN_CACHE", {})
+    monkeypatch.setattr(S, "_RUN_CACHE_MAX", 50)
+    rng = np.random.default_rng(21)
+    t = (np.datetime64("1990-01-01", "s")  # dense enough for the interpolated path
+         + rng.integers(0, 20 * 365 * 86400, 20000).astype("timedelta64[s]"))
+    for dt in (None, 69.0):
+        cold = S.sun_position(t, 10.0, 20.0, delta_t=dt).zenith
+        warm = S.sun_position(t, 10.0, 20.0, delta_t=dt).zenith
+        np.testing.assert_array_equal(cold, warm)
+    assert 0 < len(S._RUN_CACHE) <= 50
