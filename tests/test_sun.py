@@ -610,3 +610,23 @@ def test_node_cache_gives_identical_results_and_stays_bounded(monkeypatch):
         warm = S.sun_position(t, 10.0, 20.0, delta_t=dt).zenith
         np.testing.assert_array_equal(cold, warm)
     assert 0 < len(S._RUN_CACHE) <= 50
+
+
+def test_shipped_node_table_matches_the_spa_code():
+    # atmoscatter/data/spa_nodes.npz must hold exactly what _spa_time_terms computes at the
+    # nodes (default ΔT): recompute a sample of runs spread over 1900–2100 (regenerate the
+    # table with scripts/make_spa_nodes.py after changing the SPA code or ΔT).
+    table = S._node_table()
+    assert table is not None, "shipped SPA node table missing or made with other settings"
+    first, runs = table
+    assert runs.shape[1:] == (S._RUN, len(S._COLUMNS))
+    rng = np.random.default_rng(8)
+    sample = np.unique(np.concatenate([[0, runs.shape[0] - 1], rng.integers(0, runs.shape[0], 12)]))
+    fresh = S._node_runs(sample + first, None, use_table=False)
+    np.testing.assert_allclose(runs[sample], fresh, rtol=0, atol=1e-12)
+    # and the table covers 1900-01-01 … 2100-12-31 (plus the interpolation stencil)
+    d = (np.array(["1900-01-01", "2100-12-31"], dtype="datetime64[s]")
+         - np.datetime64("2000-01-01T12:00", "s")) / np.timedelta64(1, "D")
+    node = np.floor(d / S._NODE_STEP).astype(int)
+    assert (node[0] - 1) // S._RUN >= first
+    assert (node[1] + 2) // S._RUN < first + runs.shape[0]
