@@ -613,7 +613,11 @@ def _spa_interpolated(d: np.ndarray, dt_const) -> dict[str, np.ndarray] | None:
     iv = np.floor(u)
     lo, hi = int(iv.min()), int(iv.max())
     span = hi - lo + 1
-    if span > 4 * n_finite:
+    table = _node_table() if dt_const is None else None
+    # with the shipped nodes covering the batch, interpolation is always the cheaper path
+    tabulated = table is not None and (lo - 1) // _RUN >= table[0] and (
+        (hi + 2) // _RUN < table[0] + table[1].shape[0])
+    if span > 4 * n_finite and not tabulated:
         return None
     iv = iv.astype(np.int64) - lo  # interval index, 0 … span-1
     occ = np.zeros(span, dtype=bool)
@@ -625,7 +629,7 @@ def _spa_interpolated(d: np.ndarray, dt_const) -> dict[str, np.ndarray] | None:
     # evaluate whole runs of _RUN consecutive nodes (cheap per node, see _earth_series_runs)
     node_ids = node_pos + (lo - 1)
     run_ids = np.unique(node_ids // _RUN)
-    if run_ids.size * _RUN > 2 * n_finite:
+    if run_ids.size * _RUN > 2 * n_finite and not tabulated:
         return None
     runs = _node_runs(run_ids, dt_const)  # (n_runs, _RUN, ncol), from the cache when possible
     pos = np.searchsorted(run_ids, node_ids // _RUN)
