@@ -31,6 +31,9 @@ __all__ = [
     "TentProfile",
     "Constituent",
     "Atmosphere",
+    "atmosphere_to_dict",
+    "atmosphere_from_dict",
+    "load_atmosphere",
 ]
 
 _PHASE_TYPES = (RayleighPhase, HenyeyGreensteinPhase, CornetteShanksPhase, IsotropicPhase)
@@ -405,3 +408,141 @@ class Atmosphere:
             )
             tau = tau + float(ol) * c.extinction_array
         return tau
+
+
+# ---------------------------------------------------------------------------------------
+# plain-data form (TOML / JSON atmosphere files)
+# ---------------------------------------------------------------------------------------
+_PROFILE_KINDS = {
+    "exponential": (ExponentialProfile, ("scale_height", "reference_altitude")),
+    "tabulated": (TabulatedProfile, ("altitudes", "densities")),
+    "tent": (TentProfile, ("center", "half_width")),
+}
+_PHASE_KINDS = {
+    "rayleigh": (RayleighPhase, ()),
+    "isotropic": (IsotropicPhase, ()),
+    "henyey_greenstein": (HenyeyGreensteinPhase, ("g",)),
+    "cornette_shanks": (CornetteShanksPhase, ("g",)),
+}
+
+
+def _typed(d, kinds, what: str):
+    if isinstance(d, str):
+        d = {"type": d}
+    if not isinstance(d, dict) or "type" not in d:
+        raise ValueError(f"{what} must be a table with a 'type' (one of {sorted(kinds)}), got {d!r}")
+    kind = d["type"]
+    if kind not in kinds:
+        raise ValueError(f"{what} type {kind!r} is not valid; choose one of {sorted(kinds)}")
+    cls, keys = kinds[kind]
+    extra = set(d) - set(keys) - {"type"}
+    if extra:
+        raise ValueError(f"{what} of type {kind!r} has unknown keys {sorted(extra)}; valid: {list(keys)}")
+    return cls(**{k: d[k] for k in keys if k in d})
+
+
+def atmosphere_to_dict(atmosphere: Atmosphere) -> dict:
+    """Plain-data form of an :class:`Atmosphere` (numbers, strings, lists; TOML/JSON ready).
+
+    The inverse of :func:`atmosphere_from_dict`; every field round-trips exactly.
+    """
+    def profile(p):
+        kind = {v[0]: k for k, v in _PROFILE_KINDS.items()}[type(p)]
+        return {"type": kind, **{k: (list(getattr(p, k)) if isinstance(getattr(p, k), tuple)
+                                      else getattr(p, k)) for k in _PROFILE_KINDS[kind][1]}}
+
+    def phase(p):
+        kind = {v[0]: k for k, v in _PHASE_KINDS.items()}[type(p)]
+        return {"type": kind, **{k: getattr(p, k) for k in _PHASE_KINDS[kind][1]}}
+
+    return {
+        "name": atmosphere.name,
+        "planet_radius": atmosphere.planet_radius,
+        "top_radius": atmosphere.top_radius,
+        "wavelengths": list(atmosphere.wavelengths),
+        "constituents": [
+            {"name": c.name, "scattering": list(c.scattering), "absorption": list(c.absorption),
+             "profile": profile(c.profile), "phase": phase(c.phase)}
+            for c in atmosphere.constituents
+        ],
+    }
+
+
+def atmosphere_from_dict(data: dict) -> Atmosphere:
+    """Build an :class:`Atmosphere` from its plain-data form.
+
+    Keys: ``planet_radius``, ``top_radius`` [m], ``wavelengths`` [nm], optional ``name`` and
+    ``constituents``, a list of tables with ``name``, ``scattering`` and ``absorption``
+    (per wavelength [m⁻¹] at density 1; a single number is broadcast), ``profile``
+    (``{type = "exponential", scale_height = 8000}``, ``"tent"`` with ``center`` and
+    ``half_width``, or ``"tabulated"`` with ``altitudes`` and ``densities``) and ``phase``
+    (``"rayleigh"``, ``"isotropic"``, or ``{type = "henyey_greenstein", g = 0.8}`` /
+    ``"cornette_shanks"``).  Unknown keys and bad values raise ``ValueError`` naming them.
+
+    Examples
+    --------
+    >>> atm = atmosphere_from_dict({"planet_radius": 6.36e6, "top_radius": 6.42e6,
+    ...     "wavelengths": [680, 550, 440], "constituents": [{"name": "rayleigh",
+    ...     "scattering": [5.8e-6, 1.36e-5, 3.31e-5], "absorption": 0,
+    ...     "profile": {"type": "exponential", "scale_height": 8000}, "phase": "rayleigh"}]})
+    >>> atm.constituents[0].profile.scale_height
+    8000.0
+    """
+    if not isinstance(data, dict):
+        raise TypeError(f"an atmosphere must be a table (dict), got {type(data).__name__}")
+    allowed = {"name", "planet_radius", "top_radius", "wavelengths", "constituents"}
+    extra = set(data) - allowed
+    if extra:
+        raise ValueError(f"unknown atmosphere keys {sorted(extra)}; valid: {sorted(allowed)}")
+    for k in ("planet_radius", "top_radius", "wavelengths"):
+        if k not in data:
+            raise ValueError(f"atmosphere needs {k!r}")
+    cons = []
+    for i, c in enumerate(data.get("constituents", [])):
+        if not isinstance(c, dict):
+            raise ValueError(f"constituents[{i}] must be a table, got {c!r}")
+        ckeys = {"name", "scattering", "absorption", "profile", "phase"}
+        extra = set(c) - ckeys
+        if extra:
+            raise ValueError(f"constituents[{i}] has unknown keys {sorted(extra)}; valid: {sorted(ckeys)}")
+        if "name" not in c or "scattering" not in c or "profile" not in c:
+            raise ValueError(f"constituents[{i}] needs 'name', 'scattering' and 'profile'")
+        cons.append(Constituent(
+            name=c["name"], scattering=c["scattering"], absorption=c.get("absorption", 0.0),
+            profile=_typed(c["profile"], _PROFILE_KINDS, f"constituents[{i}].profile"),
+            phase=_typed(c.get("phase", "rayleigh"), _PHASE_KINDS, f"constituents[{i}].phase"),
+        ))
+    return Atmosphere(planet_radius=data["planet_radius"], top_radius=data["top_radius"],
+                      wavelengths=data["wavelengths"], constituents=tuple(cons),
+                      name=str(data.get("name", "custom")))
+
+
+def load_atmosphere(path) -> Atmosphere:
+    """Read an atmosphere from a TOML or JSON file (format: :func:`atmosphere_from_dict`)."""
+    import json
+    import os
+
+    path = os.fspath(path)
+    if not os.path.isfile(path):
+        raise ValueError(f"atmosphere file {path!r} does not exist")
+    try:
+        if path.lower().endswith(".json"):
+            with open(path, encoding="utf-8") as fh:
+                data = json.load(fh)
+        elif path.lower().endswith(".toml"):
+            try:
+                import tomllib
+            except ModuleNotFoundError:  # pragma: no cover - Python 3.10
+                import tomli as tomllib
+            with open(path, "rb") as fh:
+                data = tomllib.load(fh)
+        else:
+            raise ValueError(f"atmosphere file {path!r} must end in .toml or .json")
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise ValueError(f"{path}: not a valid atmosphere file ({exc})") from None
+    except Exception as exc:
+        if type(exc).__name__ == "TOMLDecodeError":
+            raise ValueError(f"{path}: not valid TOML ({exc})") from None
+        raise
+    data = data.get("atmosphere", data) if isinstance(data, dict) else data
+    return atmosphere_from_dict(data)

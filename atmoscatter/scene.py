@@ -33,6 +33,7 @@ from dataclasses import dataclass, field, fields
 
 import numpy as np
 
+from .atmosphere import load_atmosphere
 from .sun import earth_sun_distance, sun_position
 
 __all__ = [
@@ -43,6 +44,7 @@ __all__ = [
     "PROJECTIONS",
     "OUTPUTS",
     "parse_time",
+    "is_atmosphere_file",
 ]
 
 #: Output geometries (see :mod:`atmoscatter.directions`).
@@ -96,8 +98,11 @@ class Scene:
     altitude : float
         Observer altitude above the ground [m].
     atmosphere : str
-        Atmosphere preset of the physical models, one of ``earth``,
-        ``earth_no_ozone``, ``mars``, ``keller_bohn``.
+        Atmosphere of the physical models: a preset, one of ``earth``,
+        ``earth_no_ozone``, ``mars``, ``keller_bohn``, or the path of a custom
+        atmosphere file (``.toml``/``.json``, format of
+        :func:`atmoscatter.atmosphere_from_dict`; a relative path in a scene file
+        is relative to that file).
     ground_albedo : float
         Lambertian ground albedo in [0, 1]: used by multiple scattering and for
         the documented ground value below a ground observer's horizon.
@@ -354,9 +359,16 @@ def _validate(s: Scene) -> None:
            f"wavelength_step must be in [1, 100] nm, got {s.wavelength_step!r}")
     for name, options in (("projection", PROJECTIONS), ("output", OUTPUTS),
                           ("sampling", SAMPLINGS), ("precision", PRECISIONS), ("tone", TONES),
-                          ("symmetry", SYMMETRY), ("atmosphere", ATMOSPHERES)):
+                          ("symmetry", SYMMETRY)):
         v = getattr(s, name)
         _check(v in options, f"{name}={v!r} is not valid; choose one of {sorted(options)}")
+    if is_atmosphere_file(s.atmosphere):
+        _check(os.path.isfile(s.atmosphere),
+               f"atmosphere file {s.atmosphere!r} does not exist")
+    else:
+        _check(s.atmosphere in ATMOSPHERES,
+               f"atmosphere={s.atmosphere!r} is not valid; choose one of {sorted(ATMOSPHERES)} "
+               "or give a .toml/.json atmosphere file")
     _check(1 <= s.width <= 65536, f"width must be in [1, 65536] pixels, got {s.width!r}")
     _check(1 <= s.height <= 65536, f"height must be in [1, 65536] pixels, got {s.height!r}")
     if s.projection == "dome":
@@ -464,6 +476,9 @@ def load_scene(path: str | os.PathLike | None = None, *, overrides=None) -> Scen
     values raise :class:`ValueError` naming the file and the field.
     """
     data = _read_scene_file(path) if path is not None else {}
+    atm = data.get("atmosphere")
+    if path is not None and isinstance(atm, str) and is_atmosphere_file(atm) and not os.path.isabs(atm):
+        data["atmosphere"] = os.path.join(os.path.dirname(os.path.abspath(os.fspath(path))), atm)
     if overrides:
         if isinstance(overrides, dict):
             data.update(overrides)
@@ -605,6 +620,11 @@ def _ground_value_text(scene: Scene) -> str:
             "sky and the transmitted direct sun (rho * E_h / pi)")
 
 
+def is_atmosphere_file(value) -> bool:
+    """True if a scene's ``atmosphere`` value names a custom atmosphere file."""
+    return isinstance(value, str) and value.lower().endswith((".toml", ".json"))
+
+
 def plan(scene: Scene, *, batch_size: int | None = None, atmosphere=None) -> Plan:
     """Decide the minimal work for ``scene``.
 
@@ -633,6 +653,8 @@ def plan(scene: Scene, *, batch_size: int | None = None, atmosphere=None) -> Pla
 
     adapter = get_model(scene.model)
     notes = []
+    if atmosphere is None and is_atmosphere_file(scene.atmosphere):
+        atmosphere = load_atmosphere(scene.atmosphere)
     zen, azi, source = scene.sun_angles()
     distance = float(earth_sun_distance(parse_time(scene.time))) if scene.time else 1.0
 

@@ -245,3 +245,70 @@ def test_constituent_bad_input(kwargs, exc, match):
 def test_profile_bad_input(factory, match):
     with pytest.raises(ValueError, match=match):
         factory()
+
+
+# --- plain-data form and atmosphere files ------------------------------------------------
+def test_atmosphere_dict_round_trip_for_every_profile_and_phase():
+    import json
+
+    atm = ac.Atmosphere(6.36e6, 6.42e6, [440.0, 550.0, 680.0], [
+        ac.Constituent("air", [3.3e-5, 1.36e-5, 5.8e-6], 0.0, ac.ExponentialProfile(8000.0),
+                       ac.RayleighPhase()),
+        ac.Constituent("haze", [4e-6] * 3, 4.4e-7, ac.ExponentialProfile(1200.0, 10.0),
+                       ac.HenyeyGreensteinPhase(0.76)),
+        ac.Constituent("dust", [1e-6] * 3, 1e-7, ac.TabulatedProfile([0, 1e3, 5e3], [1, 0.5, 0.0]),
+                       ac.CornetteShanksPhase(0.6)),
+        ac.Constituent("ozone", 0.0, [1e-7, 2e-6, 7e-7], ac.TentProfile(25e3, 15e3),
+                       ac.IsotropicPhase()),
+    ], name="test")
+    # through JSON text, as a file would store it: every field comes back exactly
+    back = ac.atmosphere_from_dict(json.loads(json.dumps(ac.atmosphere_to_dict(atm))))
+    assert back == atm
+    assert ac.atmosphere_from_dict(ac.atmosphere_to_dict(ac.earth_atmosphere())) == ac.earth_atmosphere()
+
+
+@pytest.mark.parametrize("change,match", [
+    ({"colour": 1}, "unknown atmosphere keys"),
+    ({"top_radius": 6.0e6}, "top_radius"),
+    ({"constituents": [{"name": "a", "scattering": 1e-5, "profile": {"type": "linear"}}]},
+     "profile type 'linear' is not valid"),
+    ({"constituents": [{"name": "a", "scattering": 1e-5,
+                        "profile": {"type": "exponential", "scale_height": 8e3, "foo": 1}}]},
+     "unknown keys"),
+    ({"constituents": [{"name": "a", "scattering": 1e-5, "profile": "exponential"}]},
+     "scale_height"),
+    ({"constituents": [{"name": "a", "scattering": 1e-5,
+                        "profile": {"type": "exponential", "scale_height": 8e3},
+                        "phase": {"type": "henyey_greenstein", "g": 1.0}}]}, "g must be in"),
+])
+def test_atmosphere_from_dict_errors_name_the_problem(change, match):
+    data = {"planet_radius": 6.36e6, "top_radius": 6.42e6, "wavelengths": [550.0]}
+    data.update(change)
+    with pytest.raises((ValueError, TypeError), match=match):
+        ac.atmosphere_from_dict(data)
+
+
+def test_load_atmosphere_toml_and_json(tmp_path):
+    import json
+
+    d = ac.atmosphere_to_dict(ac.mars_atmosphere())
+    (tmp_path / "a.json").write_text(json.dumps(d))
+    assert ac.load_atmosphere(tmp_path / "a.json") == ac.mars_atmosphere()
+    toml = """planet_radius = 3389500.0
+top_radius = 3489500.0
+wavelengths = [680.0, 550.0, 440.0]
+[[constituents]]
+name = "co2"
+scattering = [2e-7, 5e-7, 1.2e-6]
+profile = { type = "exponential", scale_height = 11100.0 }
+phase = "rayleigh"
+"""
+    (tmp_path / "a.toml").write_text(toml)
+    atm = ac.load_atmosphere(tmp_path / "a.toml")
+    assert atm.constituents[0].profile.scale_height == 11100.0
+    assert atm.constituents[0].absorption == (0.0, 0.0, 0.0)
+    with pytest.raises(ValueError, match="does not exist"):
+        ac.load_atmosphere(tmp_path / "missing.toml")
+    (tmp_path / "bad.toml").write_text("planet_radius = ")
+    with pytest.raises(ValueError, match="not valid TOML"):
+        ac.load_atmosphere(tmp_path / "bad.toml")

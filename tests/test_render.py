@@ -450,6 +450,28 @@ class TestCustomAtmosphere:
         with pytest.raises(ValueError, match="physical models only"):
             plan(scene(), atmosphere=self._atm())
 
+    def test_atmosphere_file_in_a_scene_file(self, tmp_path, fake_single):
+        # a scene file may name a custom atmosphere file (relative to the scene file); the
+        # plan then loads it and the model receives exactly that atmosphere
+        import json
+
+        fake = fake_single(lambda wl: 0.02 * (550.0 / wl) ** 4)
+        atm = self._atm()
+        (tmp_path / "air.json").write_text(json.dumps(ac.atmosphere_to_dict(atm)))
+        (tmp_path / "scene.toml").write_text(
+            'model = "single_scattering"\natmosphere = "air.json"\nwidth = 8\nheight = 4\n'
+            'output = "xyz"\nsun_elevation_deg = 30.0\nsun_azimuth_deg = 90.0\n')
+        s = ac.load_scene(tmp_path / "scene.toml")
+        assert s.atmosphere == str(tmp_path / "air.json")
+        from_file = ac.render(s)
+        direct = ac.render(dataclasses.replace(s, atmosphere="earth"), atmosphere=atm)
+        np.testing.assert_array_equal(from_file.xyz, direct.xyz)
+        assert [c.name for c in fake.atmospheres[0].constituents] == ["rayleigh"]
+        with pytest.raises(ValueError, match="atmosphere file .* does not exist"):
+            ac.load_scene(overrides={"atmosphere": str(tmp_path / "nope.toml")})
+        with pytest.raises(ValueError, match="physical models only"):
+            ac.render(dataclasses.replace(s, model="preetham"))
+
 
 def test_rgb_sampling_matrix_reproduces_power_laws():
     lam = np.array([680.0, 550.0, 440.0])

@@ -605,9 +605,9 @@ def test_node_cache_gives_identical_results_and_stays_bounded(monkeypatch):
     rng = np.random.default_rng(21)
     t = (np.datetime64("1990-01-01", "s")  # dense enough for the interpolated path
          + rng.integers(0, 20 * 365 * 86400, 20000).astype("timedelta64[s]"))
-    for dt in (None, 69.0):
-        cold = S.sun_position(t, 10.0, 20.0, delta_t=dt).zenith
-        warm = S.sun_position(t, 10.0, 20.0, delta_t=dt).zenith
+    for dts in (None, 69.0):
+        cold = S.sun_position(t, 10.0, 20.0, delta_t=dts).zenith
+        warm = S.sun_position(t, 10.0, 20.0, delta_t=dts).zenith
         np.testing.assert_array_equal(cold, warm)
     assert 0 < len(S._RUN_CACHE) <= 50
 
