@@ -198,6 +198,18 @@ def _prepare_preetham(scene, plan):
     fn = _lookup("preetham_sky")
     sun = plan.sun_direction
     turbidity = scene.turbidity
+    if plan.quantity == "spectral":
+        spectral = _lookup("preetham_sky_spectral")
+        wl = np.asarray(plan.wavelengths, dtype=float)
+
+        def evaluate_spectral(directions):
+            # the D-series reconstruction can dip below zero far from the daylight locus
+            # (low sun); an image gets the clipped spectrum rescaled to the model's Y
+            return {"XYZ": np.asarray(fn(directions, sun, turbidity), dtype=float),
+                    "spectral": np.asarray(spectral(directions, sun, turbidity, wl,
+                                                    clip_negative=True), dtype=float)}
+
+        return evaluate_spectral
 
     def evaluate(directions):
         xyz = np.asarray(fn(directions, sun, turbidity), dtype=float)
@@ -206,6 +218,15 @@ def _prepare_preetham(scene, plan):
         return {"XYZ": xyz}
 
     return evaluate
+
+
+def _preetham_wavelengths(scene):
+    """Spectral layers of the Preetham sky only when asked for (CIE D-series, 380–780 nm)."""
+    if scene.output != "spectral":
+        return ()
+    step = scene.wavelength_step
+    n = int(math.floor((780.0 - 380.0) / step + 1e-9)) + 1
+    return tuple(380.0 + step * np.arange(n))
 
 
 # ----------------------------------------------------------------------------
@@ -271,7 +292,8 @@ _PREETHAM = ModelAdapter(
     name="preetham",
     description="Preetham, Shirley & Smits (1999) analytic clear sky (Perez fits of Y, x, y)",
     prepare=_prepare_preetham,
-    spectral=False,
+    spectral=True,
+    wavelengths=_preetham_wavelengths,
     separate_haze=False,
     ground_only=True,
     cost_per_direction=3e-7,

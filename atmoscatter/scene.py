@@ -709,7 +709,7 @@ def plan(scene: Scene, *, batch_size: int | None = None, atmosphere=None) -> Pla
     if atmosphere is not None:
         wavelengths = wl_custom
         integration = "Y only" if quantity == "Y" else "XYZ"
-    elif adapter.spectral:
+    elif adapter.spectral and adapter.wavelengths(scene):
         wavelengths = adapter.wavelengths(scene)
         integration = "Y only" if quantity == "Y" else "XYZ"
         if quantity == "Y":

@@ -599,3 +599,25 @@ class TestHoffmanPreethamAdapter:
         # spectral sampling (10 nm) removes the interpolation error
         s10 = s.replace_from_strings(["sampling=spectral", "wavelength_step=10"])
         np.testing.assert_allclose(ac.render(s10, directions=d).xyz, expected, rtol=3e-3)
+
+
+def test_preetham_spectral_output_integrates_back_to_its_luminance(tmp_path):
+    # output="spectral" with the Preetham sky: CIE D-series spectra (seed 004) whose
+    # 683 ∫ L ȳ dλ reproduces the model's Y (independent CMF quadrature from colour-science
+    # weights); with any other output no spectrum is computed at all.
+    s = Scene(model="preetham", output="spectral", width=32, height=16, sun_elevation_deg=40.0,
+              sun_azimuth_deg=120.0, turbidity=3.0)
+    p = plan(s)
+    assert p.wavelengths[0] == 380.0 and p.wavelengths[-1] == 780.0
+    img = ac.render(s)
+    assert img.spectral.shape == (16, 32, len(p.wavelengths))
+    assert np.all(img.spectral >= 0)
+    W = ac.cmf_weights(np.asarray(p.wavelengths))
+    Y = K_M * (img.spectral.astype(float) @ W)[..., 1]
+    sky = img.alpha > 0
+    np.testing.assert_allclose(Y[sky], img.luminance[sky], rtol=1e-5)
+    path = ac.write_exr(tmp_path / "spec.exr", img)
+    back = ac.read_exr(path)
+    assert any(k.startswith("S0.") or "nm" in k for k in back.channels)
+    p_rgb = plan(dataclasses.replace(s, output="rgb"))
+    assert p_rgb.wavelengths == () and p_rgb.spectral_integration == "none"
