@@ -9,8 +9,33 @@ from __future__ import annotations
 
 import os
 
+import numpy as np
+import pytest
 from hypothesis import settings
+
+from atmoscatter.models import ModelAdapter, register_model, unregister_model
 
 settings.register_profile("ci", derandomize=True, deadline=None, print_blob=True)
 settings.register_profile("dev", deadline=None, print_blob=True)
 settings.load_profile("ci" if os.environ.get("CI") else "dev")
+
+
+def _toy_prepare(scene, plan):
+    # a cheap, smooth, sun-dependent sky; the turbidity term tells scenes apart in batch tests
+    sun = plan.sun_direction
+    t = scene.turbidity
+
+    def evaluate(d):
+        y = 1000.0 * t + 3000.0 * (d @ sun) ** 2 + 1000.0 * d[:, 2]
+        return {"Y": y} if plan.quantity == "Y" else {"XYZ": np.stack([0.9 * y, y, 1.2 * y], -1)}
+
+    return evaluate
+
+
+@pytest.fixture
+def toy_model():
+    """Register the model ``toy`` (used by the scene/EXR/CLI/batch machinery tests)."""
+    register_model(ModelAdapter(name="toy", description="toy sky", prepare=_toy_prepare,
+                                error_estimate="exact (toy)"), replace=True)
+    yield
+    unregister_model("toy")

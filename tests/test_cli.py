@@ -10,25 +10,8 @@ import pytest
 import atmoscatter as ac
 from atmoscatter.cli import main
 from atmoscatter.exr import read_exr
-from atmoscatter.models import ModelAdapter, register_model, unregister_model
 
-
-def _toy_prepare(scene, plan):
-    sun = plan.sun_direction
-
-    def evaluate(d):
-        y = 2000.0 + 3000.0 * (d @ sun) ** 2 + 1000.0 * d[:, 2]
-        return {"Y": y} if plan.quantity == "Y" else {"XYZ": np.stack([0.9 * y, y, 1.2 * y], -1)}
-
-    return evaluate
-
-
-@pytest.fixture(autouse=True)
-def toy():
-    register_model(ModelAdapter(name="toy", description="toy sky", prepare=_toy_prepare),
-                   replace=True)
-    yield
-    unregister_model("toy")
+pytestmark = pytest.mark.usefixtures("toy_model")
 
 
 TOY = ["--set", "model=toy", "--set", "sun_elevation_deg=30", "--set", "sun_azimuth_deg=200",

@@ -17,27 +17,11 @@ from atmoscatter.exr import (
     spectral_channel_name,
     write_exr,
 )
-from atmoscatter.models import ModelAdapter, physical_adapter, register_model, unregister_model
+from atmoscatter.models import physical_adapter, register_model, unregister_model
 from atmoscatter.preview import preview_array, srgb_encode, tone_map, write_png, write_preview
 from atmoscatter.scene import Scene
 
-
-def _toy_prepare(scene, plan):
-    sun = plan.sun_direction
-
-    def evaluate(d):
-        y = 2000.0 + 3000.0 * (d @ sun) ** 2 + 1000.0 * d[:, 2]
-        return {"Y": y} if plan.quantity == "Y" else {"XYZ": np.stack([0.9 * y, y, 1.2 * y], -1)}
-
-    return evaluate
-
-
-@pytest.fixture(autouse=True)
-def toy():
-    register_model(ModelAdapter(name="toy", description="toy sky", prepare=_toy_prepare,
-                                error_estimate="exact (toy)"), replace=True)
-    yield
-    unregister_model("toy")
+pytestmark = pytest.mark.usefixtures("toy_model")
 
 
 def scene(**kw):
