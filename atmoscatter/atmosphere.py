@@ -378,21 +378,21 @@ class Atmosphere:
         """Constituents that scatter or absorb at some wavelength (empty ones are skipped)."""
         return tuple(c for c in self.constituents if not c.is_empty)
 
-    def scattering_at(self, altitude) -> np.ndarray:
-        """Total scattering coefficient [m⁻¹] at ``altitude`` [m], shape (..., n_wavelengths)."""
+    def _sum_at(self, altitude, coefficient: str) -> np.ndarray:
+        """Σ over constituents of density(altitude) × ``coefficient`` array, (..., n_wl)."""
         h = as_float_array(altitude, "altitude")[..., None]
         out = np.zeros(h.shape[:-1] + (self.n_wavelengths,), dtype=np.result_type(h, float))
         for c in self.active_constituents():
-            out += c.profile.density(h) * c.scattering_array
+            out += c.profile.density(h) * getattr(c, coefficient)
         return out
+
+    def scattering_at(self, altitude) -> np.ndarray:
+        """Total scattering coefficient [m⁻¹] at ``altitude`` [m], shape (..., n_wavelengths)."""
+        return self._sum_at(altitude, "scattering_array")
 
     def extinction_at(self, altitude) -> np.ndarray:
         """Total extinction coefficient [m⁻¹] at ``altitude`` [m], shape (..., n_wavelengths)."""
-        h = as_float_array(altitude, "altitude")[..., None]
-        out = np.zeros(h.shape[:-1] + (self.n_wavelengths,), dtype=np.result_type(h, float))
-        for c in self.active_constituents():
-            out += c.profile.density(h) * c.extinction_array
-        return out
+        return self._sum_at(altitude, "extinction_array")
 
     def vertical_optical_depth(self) -> np.ndarray:
         """Optical depth [-] from the ground to the top along the zenith, per wavelength.
