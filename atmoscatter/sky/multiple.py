@@ -43,6 +43,7 @@ References
 
 from __future__ import annotations
 
+import os
 import threading
 import warnings
 from dataclasses import dataclass
@@ -51,10 +52,11 @@ import numpy as np
 
 from .._validate import check_range
 from . import _quadrature as qd
+from ._ms_gather import gather as _gather_kernel
 from .single import (
     TABLE_THRESHOLD,
     _Batch,
-    _graded_view_bounds,
+    _extinction_scale,
     _prepare_inputs,
     _SkyTable,
     single_scattering,
@@ -70,29 +72,72 @@ class MultipleScatteringGrid:
     Parameters
     ----------
     n_altitude : int
-        Altitude levels (quadratically clustered toward the ground).
+        Altitude levels, ≥ 2 (quadratically clustered toward the ground).
     n_sun : int
-        Solar zenith angles, uniform in 0–``max_sun_zenith`` [deg].
+        Solar zenith angles, ≥ 2, in 0–``max_sun_zenith``; their density grows toward
+        the horizon and below it (``horizon_density``), where the field changes fastest.
     n_mu : int
-        View zenith cosines (double Gauss: half on each side of the horizontal).
+        View zenith cosines of the quadrature, even, ≥ 2 (double Gauss: half on each side
+        of the horizontal).  The source is also evaluated at the zenith and the nadir, so
+        interpolation never extrapolates toward the poles.
     n_phi : int
-        Relative azimuths, uniform in 0–π inclusive.
+        Relative azimuths, ≥ 2, uniform in 0–π inclusive.
     order : int
-        Gauss–Legendre order per panel of the ray integrals.
+        Gauss–Legendre order per panel of the ray integrals, ≥ 1.
     max_sun_zenith : float
-        Largest solar zenith angle on the grid [deg] (beyond: deep night, clamped).
+        Largest solar zenith angle on the grid [deg], in (90, 180] (beyond: the value at
+        the last node, which is deep night for Earth-like planets).
+    horizon_density : float
+        Node density at solar zenith ~97° relative to the density at the zenith [-], ≥ 1
+        (1: uniform nodes).
     """
 
     n_altitude: int = 16
-    n_sun: int = 14
+    n_sun: int = 32
     n_mu: int = 16
     n_phi: int = 9
     order: int = 3
     max_sun_zenith: float = 120.0
+    horizon_density: float = 4.0
+
+    def __post_init__(self):
+        for name in ("n_altitude", "n_sun", "n_mu", "n_phi", "order"):
+            value = getattr(self, name)
+            low = 1 if name == "order" else 2
+            if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < low:
+                raise ValueError(
+                    f"MultipleScatteringGrid.{name} must be an integer >= {low}, got {value!r}"
+                )
+        if self.n_mu % 2:
+            raise ValueError(f"MultipleScatteringGrid.n_mu must be even, got {self.n_mu!r}")
+        if not (90.0 < float(self.max_sun_zenith) <= 180.0):
+            raise ValueError(
+                "MultipleScatteringGrid.max_sun_zenith must be in (90, 180] deg, "
+                f"got {self.max_sun_zenith!r}"
+            )
+        if not (float(self.horizon_density) >= 1.0 and np.isfinite(self.horizon_density)):
+            raise ValueError(
+                "MultipleScatteringGrid.horizon_density must be finite and >= 1, "
+                f"got {self.horizon_density!r}"
+            )
+
+    def sun_zenith_nodes(self) -> np.ndarray:
+        """Solar zenith nodes [rad], increasing, from 0 to ``max_sun_zenith``.
+
+        Equidistributed in the node density ``1 + (horizon_density − 1)
+        exp(−((θ − 97°)/13°)²)``: with the defaults about 6.3° apart near the zenith and
+        1.3° apart from the horizon to 18° below it.
+        """
+        th = np.linspace(0.0, float(self.max_sun_zenith), 4001)
+        dens = 1.0 + (float(self.horizon_density) - 1.0) * np.exp(-(((th - 97.0) / 13.0) ** 2))
+        cdf = np.concatenate([[0.0], np.cumsum(0.5 * (dens[1:] + dens[:-1]) * np.diff(th))])
+        nodes = np.interp(np.linspace(0.0, cdf[-1], self.n_sun), cdf, th)
+        nodes[0], nodes[-1] = 0.0, float(self.max_sun_zenith)
+        return np.radians(nodes)
 
 
 MULTIPLE_SCATTERING_GRID = MultipleScatteringGrid()
-"""Default grid."""
+"""Default grid (chosen from the error-against-run-time study in ``docs/convergence.md``)."""
 
 #: (view-zenith, azimuth) nodes of the table used for the multiple-scattering part of large
 #: batches (≥ TABLE_THRESHOLD directions, observer inside the atmosphere)
@@ -101,6 +146,10 @@ _MS_TABLE_NODES = (129, 33)
 _CACHE: dict = {}
 _CACHE_LOCK = threading.Lock()
 _CACHE_MAX = 4
+_THREADS = max(1, min(4, os.cpu_count() or 1))
+#: with orders=None, summation stops once the estimated tail is below this multiple of
+#: order_tolerance, and the tail is added (see _FieldState.converged_sum)
+_ACCELERATION = 30.0
 
 
 # ----------------------------------------------------------------------------------------
@@ -116,7 +165,47 @@ class _March:
     ground: np.ndarray  # (N,) ray ends on the ground
     t_end: np.ndarray  # (N, nwl) transmittance to the end
     mus_end: np.ndarray  # (N,) sun zenith cosine at the end point
-    loc: tuple | None = None  # cached interpolation coordinates on the field grid
+
+
+def _ms_view_bounds(b: _Batch, m: int = 1) -> np.ndarray:
+    """Panel boundaries along a view ray for integrals of a *smooth* source.
+
+    The single-scattering rule (:func:`atmoscatter.sky.single._graded_view_bounds`) also
+    splits at the planet's shadow and where the sun ray grazes optical-depth levels,
+    because the sun's transmittance changes abruptly there.  The multiple-scattering
+    source varies smoothly along a ray (it is a phase integral of the field, and the
+    order-1 field comes from a smooth transmittance table), so here panels grow
+    geometrically from the ray's lowest point and from its start (first panel no longer
+    than the local density scale and extinction length), with profile breakpoints and the
+    view ray's optical-depth levels as extra boundaries.
+    """
+    atm = b.atm
+    sa, sb, p2 = b.sa, b.sb, b.p2
+    c = np.clip(0.0, sa, sb)
+    hmin = float(np.min(atm.scales)) if atm.scales.size else atm.top_radius - atm.planet_radius
+
+    def scale(x):
+        return np.minimum(qd.local_scale(hmin, x, p2), _extinction_scale(atm, p2, x))
+
+    ell_c, ell_a = scale(c), scale(sa)
+    span = max(
+        float(np.max(np.maximum(sb - c, c - sa) / ell_c)) if sa.size else 0.0,
+        float(np.max((sb - sa) / ell_a)) if sa.size else 0.0,
+    )
+    k = qd.n_geometric_panels(span, m)
+    d = qd.geometric_offsets(m, k)[1:]
+    cuts = [c[:, None] + ell_c[:, None] * d, c[:, None] - ell_c[:, None] * d,
+            sa[:, None] + ell_a[:, None] * d]
+    levels = [bp for bp in atm.breakpoints if bp.size]
+    if atm.tau_levels is not None and atm.tau_levels.size:
+        levels.append(atm.tau_levels)
+    if levels:
+        rl = atm.planet_radius + np.unique(np.concatenate(levels))
+        sq = np.sqrt(np.maximum(rl * rl - p2[:, None], 0.0))
+        cuts += [sq, -sq]
+    bounds = np.concatenate(cuts, axis=-1)
+    bounds = np.sort(np.clip(bounds, sa[:, None], sb[:, None]), axis=-1)
+    return qd.compact_bounds(np.concatenate([sa[:, None], bounds, sb[:, None]], axis=-1))
 
 
 def _march(atm: qd.PreparedAtmosphere, r0: float, v: np.ndarray, s: np.ndarray, q: int) -> _March:
@@ -125,7 +214,7 @@ def _march(atm: qd.PreparedAtmosphere, r0: float, v: np.ndarray, s: np.ndarray, 
     nwl = atm.n_wavelengths
     nsc = len(atm.scatterers)
     R = atm.planet_radius
-    bounds = _graded_view_bounds(b, 1)
+    bounds = _ms_view_bounds(b)
     sigma, weights, plen = qd.panel_rule(bounds, q)
     npan = plen.shape[1]
     h = b.altitude(sigma)
@@ -164,86 +253,132 @@ def _march(atm: qd.PreparedAtmosphere, r0: float, v: np.ndarray, s: np.ndarray, 
     return _March(wt, h, mu, mus, cphi, ground, np.exp(-tau_end), mus_end)
 
 
+class _SunTransmittance:
+    """Transmittance of the sun ray ``T(h, θ_s)`` per wavelength, from a table.
+
+    The atmosphere is horizontally uniform and the sun at infinity, so the sun's
+    transmittance at a point depends only on its altitude ``h`` and local solar zenith
+    cosine ``μ_s``.  The optical depth of *upward* rays ``τ↑(h, μ)`` (``μ ≥ 0``) is
+    tabulated with the exact graded rule on quadratically clustered altitudes × nodes
+    uniform in ``√μ`` (dense toward the horizontal, where it changes fastest) and
+    interpolated bilinearly.  A sun below the local horizontal (``μ_s < 0``) shines
+    along a ray through its perigee at radius ``r_p = r sin θ_s``: it is in the planet's
+    shadow if ``r_p < R``, and otherwise by symmetry about the perigee
+    ``τ = 2 τ↑(h_p, 0) − τ↑(h, −μ_s)`` — both terms smooth, so no table has to follow
+    the abrupt change of ``T`` along the terminator.  Used for the order-1 field at the
+    grid nodes and the direct sun on the ground; the caller's own order 1 is
+    :func:`single_scattering` (exact).  Measured error of ``τ``: ≤ 1e-4 relative.
+    """
+
+    def __init__(self, atm: qd.PreparedAtmosphere, n_h: int = 128, n_x: int = 193):
+        self.R, self.top = atm.planet_radius, atm.top_radius
+        thick = self.top - self.R
+        nodes = [thick * (np.arange(n_h) / (n_h - 1)) ** 2]
+        # profile breakpoints put kinks (and √-type derivative singularities for grazing
+        # rays) into τ↑(h, μ): make them nodes, with nodes clustered on both sides
+        for bp in atm.breakpoints:
+            for b in np.asarray(bp, dtype=float):
+                nodes.append(b + np.array([-1.0, 1.0])[:, None] * np.geomspace(3.0, 3000.0, 8))
+                nodes.append([b])
+        h = np.unique(np.clip(np.concatenate([np.ravel(n) for n in nodes]), 0.0, thick))
+        self.h_nodes = h
+        self.x_nodes = np.linspace(0.0, 1.0, n_x)
+        hh, xx = np.meshgrid(self.h_nodes, self.x_nodes, indexing="ij")
+        r = self.R + hh
+        mu = xx * xx
+        p2 = r * r * (1.0 - mu) * (1.0 + mu)
+        tau = np.zeros(hh.shape + (atm.n_wavelengths,))
+        for g in range(len(atm.profiles)):
+            tau += qd.optical_length_to_top(atm, g, p2, r * mu, 6, 2)[..., None] * atm.extinction[g]
+        self.tau = tau
+
+    def _tau_up(self, h, mu):
+        hn, xn = self.h_nodes, self.x_nodes
+        hc = np.clip(h, 0.0, hn[-1])
+        i = np.clip(np.searchsorted(hn, hc, side="right") - 1, 0, hn.size - 2)
+        fi = ((hc - hn[i]) / (hn[i + 1] - hn[i]))[..., None]
+        x = np.sqrt(np.clip(mu, 0.0, 1.0)) * (xn.size - 1)
+        j = np.clip(x.astype(np.intp), 0, xn.size - 2)
+        fj = (x - j)[..., None]
+        t = self.tau
+        return ((1 - fi) * ((1 - fj) * t[i, j] + fj * t[i, j + 1])
+                + fi * ((1 - fj) * t[i + 1, j] + fj * t[i + 1, j + 1]))
+
+    def __call__(self, h: np.ndarray, mus: np.ndarray) -> np.ndarray:
+        """``T`` (..., nwl) at altitudes ``h`` [m] and sun zenith cosines ``mus``."""
+        h = np.asarray(h, dtype=float)
+        mus = np.clip(np.asarray(mus, dtype=float), -1.0, 1.0)
+        r = self.R + np.clip(h, 0.0, self.top - self.R)
+        rp = r * np.sqrt((1.0 - mus) * (1.0 + mus))
+        below = mus < 0.0
+        up = self._tau_up(h, np.abs(mus))
+        tau = np.where(below[..., None], 2.0 * self._tau_up(rp - self.R, 0.0 * mus) - up, up)
+        lit = ~(below & (rp < self.R))
+        return np.where(lit[..., None], np.exp(-np.maximum(tau, 0.0)), 0.0)
+
+
 # ----------------------------------------------------------------------------------------
 # the grid
 # ----------------------------------------------------------------------------------------
 class _Field:
+    """Node sets of the field: altitude × solar zenith × direction.
+
+    The radiance ``L`` of an order lives at the quadrature directions (double Gauss in
+    ``μ`` × uniform ``φ``); the source ``S = ∫ L p dω′`` is evaluated at the same ``μ``
+    nodes plus the zenith and the nadir (``mu_out``), so that the interpolation in ``μ``
+    spans [−1, 1] without clamping.
+    """
+
     def __init__(self, atm: qd.PreparedAtmosphere, grid: MultipleScatteringGrid):
         self.atm, self.grid = atm, grid
         thick = atm.top_radius - atm.planet_radius
         self.h_nodes = thick * (np.arange(grid.n_altitude) / (grid.n_altitude - 1)) ** 2
-        self.th_max = np.radians(grid.max_sun_zenith)
-        self.ths = np.linspace(0.0, self.th_max, grid.n_sun)
+        self.ths = grid.sun_zenith_nodes()
+        self.th_max = float(self.ths[-1])
         xg, wg = np.polynomial.legendre.leggauss(grid.n_mu // 2)
         half = 0.5 * (xg + 1.0)
         self.mu_nodes = np.concatenate([-half[::-1], half])
         self.mu_w = np.concatenate([0.5 * wg[::-1], 0.5 * wg])
+        self.mu_out = np.concatenate([[-1.0], self.mu_nodes, [1.0]])
         self.phi_nodes = np.linspace(0.0, np.pi, grid.n_phi)
         self.shape = (grid.n_altitude, grid.n_sun, grid.n_mu, grid.n_phi)
+        self.shape_out = (grid.n_altitude, grid.n_sun, grid.n_mu + 2, grid.n_phi)
 
-    # directions of the grid in a frame with the sun in the x-z plane
-    def directions(self) -> np.ndarray:
-        mm, pp = np.meshgrid(self.mu_nodes, self.phi_nodes, indexing="ij")
-        st = np.sqrt(1.0 - mm * mm)
+    def directions(self, mu=None) -> np.ndarray:
+        """Directions (μ-major, φ-minor) in a frame with the sun in the x–z plane."""
+        mu = self.mu_nodes if mu is None else mu
+        mm, pp = np.meshgrid(mu, self.phi_nodes, indexing="ij")
+        st = np.sqrt(np.maximum(1.0 - mm * mm, 0.0))
         return np.stack([st * np.cos(pp), st * np.sin(pp), mm], axis=-1).reshape(-1, 3)
 
     def phase_matrices(self) -> np.ndarray:
-        """(n_sc, n_dir, n_dir) row-normalised discrete phase operators on the grid."""
+        """(n_sc, n_out, n_dir) row-normalised discrete phase operators.
+
+        Row ``a`` integrates over the full circle of quadrature directions (folded onto
+        the half circle 0–π by the symmetry of the field about the solar vertical) for the
+        output direction ``a`` of ``mu_out`` × ``phi_nodes``.  Rows are normalised so that
+        an isotropic field is reproduced exactly (the discrete operator conserves energy).
+        """
         nphi = self.grid.n_phi
-        # full circle of azimuths, folded onto 0..π
         m_full = np.arange(2 * (nphi - 1))
         phi_full = np.pi * m_full / (nphi - 1)
         fold = np.where(m_full <= nphi - 1, m_full, 2 * (nphi - 1) - m_full)
-        dphi = np.pi / (nphi - 1)
-        d = self.directions()  # (n_dir, 3), index = l * nphi + m
+        d_out = self.directions(self.mu_out)
         mu_f, ph_f = np.meshgrid(self.mu_nodes, phi_full, indexing="ij")
         st = np.sqrt(1.0 - mu_f * mu_f)
         dfull = np.stack([st * np.cos(ph_f), st * np.sin(ph_f), mu_f], axis=-1).reshape(-1, 3)
-        wfull = (self.mu_w[:, None] * 2.0 * np.pi * np.ones_like(ph_f) * dphi / (2 * np.pi)).ravel()
+        wfull = (self.mu_w[:, None] * np.ones_like(ph_f)).ravel()
         target = (np.arange(self.grid.n_mu)[:, None] * nphi + fold[None, :]).ravel()
-        cos = np.clip(d @ dfull.T, -1.0, 1.0)
+        cos = np.clip(d_out @ dfull.T, -1.0, 1.0)
+        n_dir = self.grid.n_mu * nphi
         out = []
         for _, _, phase in self.atm.scatterers:
             p = np.asarray(phase(cos), dtype=float) * wfull[None, :]
             p /= np.sum(p, axis=1, keepdims=True)
-            folded = np.zeros((d.shape[0], d.shape[0]))
+            folded = np.zeros((d_out.shape[0], n_dir))
             np.add.at(folded.T, target, p.T)
             out.append(folded)
         return np.asarray(out)
-
-    def locate(self, h, mus, mu, cphi):
-        """Per-dimension lower indices and fractions for multilinear interpolation."""
-        g = self.grid
-        hh = np.clip(h, 0.0, self.h_nodes[-1])
-        i = np.clip(np.searchsorted(self.h_nodes, hh, side="right") - 1, 0, g.n_altitude - 2)
-        fi = (hh - self.h_nodes[i]) / (self.h_nodes[i + 1] - self.h_nodes[i])
-        th = np.clip(np.arccos(np.clip(mus, -1.0, 1.0)), 0.0, self.th_max)
-        xj = th / self.th_max * (g.n_sun - 1)
-        j = np.clip(xj.astype(np.intp), 0, g.n_sun - 2)
-        fj = xj - j
-        mm = np.clip(mu, self.mu_nodes[0], self.mu_nodes[-1])
-        k = np.clip(np.searchsorted(self.mu_nodes, mm, side="right") - 1, 0, g.n_mu - 2)
-        fk = (mm - self.mu_nodes[k]) / (self.mu_nodes[k + 1] - self.mu_nodes[k])
-        xl = np.arccos(np.clip(cphi, -1.0, 1.0)) / np.pi * (g.n_phi - 1)
-        m = np.clip(xl.astype(np.intp), 0, g.n_phi - 2)
-        fm = xl - m
-        return (i, fi), (j, fj), (k, fk), (m, fm)
-
-    def interp(self, table: np.ndarray, loc) -> np.ndarray:
-        """Multilinear interpolation of ``table`` (n_r, n_s, n_mu, n_phi, C) at ``loc``."""
-        (i, fi), (j, fj), (k, fk), (m, fm) = loc
-        n_r, n_s, n_mu, n_phi = self.shape
-        flat = table.reshape(-1, table.shape[-1])
-        out = np.zeros(i.shape + (table.shape[-1],))
-        for di, wi in ((0, 1 - fi), (1, fi)):
-            for dj, wj in ((0, 1 - fj), (1, fj)):
-                wij = wi * wj
-                for dk, wk in ((0, 1 - fk), (1, fk)):
-                    wijk = wij * wk
-                    base = (((i + di) * n_s + (j + dj)) * n_mu + (k + dk)) * n_phi
-                    out += np.take(flat, base + m, axis=0) * (wijk * (1 - fm))[..., None]
-                    out += np.take(flat, base + m + 1, axis=0) * (wijk * fm)[..., None]
-        return out
 
 
 def _ground_irradiance(field: _Field, L: np.ndarray) -> np.ndarray:
@@ -257,18 +392,27 @@ def _ground_irradiance(field: _Field, L: np.ndarray) -> np.ndarray:
 
 
 def _interp_e(field: _Field, E: np.ndarray, mus: np.ndarray) -> np.ndarray:
+    """Ground irradiance at solar zenith ``acos(mus)``: log-linear between the nodes."""
     th = np.clip(np.arccos(np.clip(mus, -1.0, 1.0)), 0.0, field.th_max)
-    return np.stack([np.interp(th, field.ths, E[:, w]) for w in range(E.shape[1])], axis=-1)
+    j = np.clip(np.searchsorted(field.ths, th, side="right") - 1, 0, field.ths.size - 2)
+    f = ((th - field.ths[j]) / (field.ths[j + 1] - field.ths[j]))[:, None]
+    a0, a1 = E[j], E[j + 1]
+    pos = (a0 > 0) & (a1 > 0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        geo = a0 * np.exp(f * np.log(np.where(pos, a1, 1.0) / np.where(pos, a0, 1.0)))
+    return np.where(pos, geo, (1 - f) * a0 + f * a1)
 
 
-def _gather(field: _Field, march: _March, S: np.ndarray) -> np.ndarray:
-    """Σ_samples w T Σ_i β_i ρ_i S_i: S (n_r, n_s, n_mu, n_phi, n_sc, nwl) → (N, nwl)."""
+def _gather(field: _Field, march: _March, S: np.ndarray, threads: int = 1) -> np.ndarray:
+    """Σ_samples w T Σ_i β_i ρ_i S_i: S (n_r, n_s, n_out, n_phi, n_sc, nwl) → (N, nwl)."""
     nsc, nwl = S.shape[-2:]
-    if march.loc is None:
-        march.loc = field.locate(march.h, march.mus, march.mu, march.cphi)
-    vals = field.interp(S.reshape(field.shape + (nsc * nwl,)), march.loc)
-    vals = vals.reshape(march.h.shape + (nsc, nwl))
-    return np.einsum("nmiw,nmiw->nw", march.wt, vals)
+    N, M = march.h.shape
+    vals = _gather_kernel(
+        S.reshape(field.shape_out + (nsc * nwl,)), field.h_nodes, field.ths, field.mu_out,
+        march.h, march.mus, march.mu, march.cphi, march.wt.reshape(N, M, nsc * nwl),
+        threads=threads,
+    )
+    return vals.reshape(N, nsc, nwl).sum(axis=1)
 
 
 class _FieldState:
@@ -285,22 +429,31 @@ class _FieldState:
         # (many wavelengths): then they are recomputed for every order
         self.keep = nwl * max(len(atm.scatterers), 1) <= 24
         L = np.zeros(field.shape + (nwl,))
-        for i, h in enumerate(field.h_nodes):
-            r0 = atm.planet_radius + h
-            for j, th in enumerate(field.ths):
-                s = np.array([np.sin(th), 0.0, np.cos(th)])
-                mc = _march(atm, r0, dirs, s, grid.order)
-                if self.keep:
-                    self.marches[i, j] = mc
-                # order 1: exact single scattering + ground-reflected direct sun
-                J = _single_J(atm, r0, dirs, s, grid.order)
-                B = atm.scattering_weights(np.clip(dirs @ s, -1.0, 1.0))
-                path = np.sum(B * J, axis=0)
-                if albedo > 0:
-                    e0 = _direct_ground_irradiance(atm, mc.mus_end, grid.order)
-                    path += np.where(mc.ground[:, None], mc.t_end * albedo / np.pi * e0, 0.0)
-                L[i, j] = path.reshape(n_mu, n_phi, nwl)
-        self.W = field.phase_matrices()  # (nsc, ndir, ndir)
+        cells = [(i, j) for i in range(n_r) for j in range(n_s)]
+
+        self.sun_t = sun_t = _SunTransmittance(atm)
+
+        def first(cell):
+            i, j = cell
+            r0 = atm.planet_radius + field.h_nodes[i]
+            th = field.ths[j]
+            s = np.array([np.sin(th), 0.0, np.cos(th)])
+            mc = _march(atm, r0, dirs, s, grid.order)
+            if self.keep:
+                self.marches[i, j] = mc
+            # order 1: single scattering of the tabulated sun transmittance (the phase
+            # function is constant along a straight ray) + ground-reflected direct sun
+            P = np.stack([np.asarray(ph(np.clip(dirs @ s, -1.0, 1.0)), dtype=float)
+                          for _, _, ph in atm.scatterers], axis=-1)  # (N, n_sc)
+            path = np.einsum("nmiw,nmw,ni->nw", mc.wt, sun_t(mc.h, mc.mus), P)
+            if albedo > 0:
+                e0 = np.maximum(mc.mus_end, 0.0)[:, None] * sun_t(np.zeros_like(mc.mus_end),
+                                                                   mc.mus_end)
+                path += np.where(mc.ground[:, None], mc.t_end * albedo / np.pi * e0, 0.0)
+            L[i, j] = path.reshape(n_mu, n_phi, nwl)
+
+        _run_cells(first, cells)
+        self.W = field.phase_matrices()  # (nsc, n_out, ndir)
         self.L = L  # field of the highest order computed so far
         self.S: list[np.ndarray] = []  # S^1, S^2, ...
 
@@ -309,30 +462,32 @@ class _FieldState:
         n_r, n_s, n_mu, n_phi = f.shape
         nsc, nwl = len(self.atm.scatterers), self.atm.n_wavelengths
         Lf = L.reshape(n_r, n_s, n_mu * n_phi, nwl)
-        return np.einsum("iab,rsbw->rsaiw", self.W, Lf).reshape(f.shape + (nsc, nwl))
+        S = np.einsum("iab,rsbw->rsaiw", self.W, Lf)
+        return np.ascontiguousarray(S).reshape(f.shape_out + (nsc, nwl))
 
     def _next_field(self, S):
         f = self.field
         E = _ground_irradiance(f, self.L) if self.albedo > 0 else None
         Lnew = np.zeros_like(self.L)
         dirs = f.directions()
-        for i, h in enumerate(f.h_nodes):
-            for j, th in enumerate(f.ths):
-                mc = self.marches.get((i, j))
-                if mc is None:
-                    s = np.array([np.sin(th), 0.0, np.cos(th)])
-                    mc = _march(self.atm, self.atm.planet_radius + h, dirs, s, f.grid.order)
-                self._accumulate(Lnew, i, j, mc, S, E)
-        return Lnew
-
-    def _accumulate(self, Lnew, i, j, mc, S, E):
-        f = self.field
         n_mu, n_phi = f.shape[2:]
-        path = _gather(f, mc, S)
-        if self.albedo > 0:
-            e = _interp_e(f, E, mc.mus_end)
-            path += np.where(mc.ground[:, None], mc.t_end * self.albedo / np.pi * e, 0.0)
-        Lnew[i, j] = path.reshape(n_mu, n_phi, -1)
+
+        def cell(ij):
+            i, j = ij
+            mc = self.marches.get((i, j))
+            if mc is None:
+                th = f.ths[j]
+                s = np.array([np.sin(th), 0.0, np.cos(th)])
+                mc = _march(self.atm, self.atm.planet_radius + f.h_nodes[i], dirs, s,
+                            f.grid.order)
+            path = _gather(f, mc, S)
+            if E is not None:
+                e = _interp_e(f, E, mc.mus_end)
+                path += np.where(mc.ground[:, None], mc.t_end * self.albedo / np.pi * e, 0.0)
+            Lnew[i, j] = path.reshape(n_mu, n_phi, -1)
+
+        _run_cells(cell, [(i, j) for i in range(f.shape[0]) for j in range(f.shape[1])])
+        return Lnew
 
     def source_sum(self, orders: int) -> np.ndarray:
         """Σ_{k=1}^{orders-1} S^k."""
@@ -345,51 +500,71 @@ class _FieldState:
             self.L = self._next_field(self.S[-1])
         self.S.append(self._source(self.L))
 
-    def converged_orders(self, tol: float, max_orders: int) -> tuple[int, float]:
-        """Smallest number of orders whose omitted tail is below ``tol`` (relative).
+    def converged_sum(self, tol: float, max_orders: int, accelerate: float = _ACCELERATION):
+        """Σ S^k over all orders, to relative accuracy ``tol``.
 
-        The sources of successive orders decay geometrically once the field has its
-        asymptotic shape, so the tail after order k is estimated as
-        ``S^k · r/(1 − r)`` with ``r = max S^k / max S^{k−1}``, taken relative to the
-        accumulated source element by element (with a floor of 1e-6 of the largest value,
-        so empty corners of the grid do not dominate).  Returns ``(orders, tail)``;
-        ``orders`` is capped at ``max_orders`` (then ``tail`` says what was reached).
+        Successive orders decay geometrically once the field has its asymptotic shape:
+        ``S^{k+1} ≈ r S^k`` element by element, with ``r = S^k / S^{k−1}`` (where
+        ``S^{k−1}`` is below 1e-6 of the largest value, the ratio of the maxima is used;
+        ``r`` is capped at 0.98).  After each order the omitted tail is estimated as
+        ``T = S^k r/(1 − r)``; the sum stops at the first order whose tail, relative to
+        the accumulated source, is below ``accelerate · tol`` and the estimated tail is
+        *added* (a geometric, Aitken-type extrapolation).  The extrapolation's own error
+        is the tail times the relative change of ``r/(1 − r)`` between the last two
+        orders, which is required to be below ``tol`` as well; ``accelerate=1`` recovers
+        plain summation to ``tol`` (without the tail).
+
+        Returns ``(S_sum, orders, tail)``: the summed source, the number of orders
+        computed (``orders − 1`` sources) and the relative tail estimate at the stop
+        (``orders`` is capped at ``max_orders``; then ``tail`` says what was reached).
         """
         k = 2
+        g_prev = None
         while True:
             self.source_sum(k)
+            total = np.sum(self.S[: k - 1], axis=0)
+            top = float(np.max(total)) if total.size else 0.0
+            if top <= 0.0:  # nothing scatters twice
+                return total, k, 0.0
             if len(self.S) >= 2:
                 last, prev = self.S[k - 2], self.S[k - 3]
-                total = np.sum(self.S[: k - 1], axis=0)
+                floor = 1e-6 * top
                 m_prev = float(np.max(prev))
-                r = float(np.max(last)) / m_prev if m_prev > 0 else 0.0
-                floor = 1e-6 * float(np.max(total)) if np.max(total) > 0 else 1.0
-                rel = float(np.max(last / (total + floor)))
-                tail = rel * r / (1.0 - r) if r < 1.0 else np.inf
-                if tail <= tol or k >= max_orders:
-                    return k, tail
-            elif not np.any(self.S[0] > 0):  # nothing scatters twice
-                return k, 0.0
+                r_all = float(np.max(last)) / m_prev if m_prev > 0 else 0.0
+                with np.errstate(divide="ignore", invalid="ignore"):
+                    r = np.where(prev > floor, last / np.where(prev > floor, prev, 1.0), r_all)
+                r = np.clip(r, 0.0, 0.98)
+                g = r / (1.0 - r)
+                tail = last * g
+                rel = float(np.max(tail / (total + floor)))
+                if accelerate <= 1.0:
+                    if rel <= tol or k >= max_orders:
+                        return total, k, rel
+                else:
+                    drift = (
+                        float(np.max(np.abs(g - g_prev) / np.maximum(g, 1e-300) * (last > floor)))
+                        if g_prev is not None else np.inf
+                    )
+                    if (rel <= accelerate * tol and rel * drift <= tol) or rel <= tol:
+                        return total + tail, k, rel * min(drift, 1.0)
+                    if k >= max_orders:
+                        return total, k, rel
+                g_prev = g
             k += 1
 
 
-def _single_J(atm, r0, v, s, q):
-    from .single import _evaluate_J, _graded, _graded_cost
+def _run_cells(fn, cells):
+    """Apply ``fn`` to every grid cell, over a small thread pool (the kernels and most
+    NumPy operations release the GIL)."""
+    if _THREADS <= 1 or len(cells) < 2:
+        for c in cells:
+            fn(c)
+        return
+    from concurrent.futures import ThreadPoolExecutor
 
-    return _evaluate_J(atm, r0, v, s, lambda b: _graded(b, q), _graded_cost(q))
-
-
-def _direct_ground_irradiance(atm: qd.PreparedAtmosphere, mus: np.ndarray, q: int) -> np.ndarray:
-    """Direct-sun irradiance on the ground per unit solar irradiance: μ_s T_sun, (N, nwl)."""
-    R = atm.planet_radius
-    lit = mus > 0
-    m = np.where(lit, mus, 1.0)
-    p2 = R * R * (1.0 - m) * (1.0 + m)
-    sig = R * m
-    tau = np.zeros(mus.shape + (atm.n_wavelengths,))
-    for g in range(len(atm.profiles)):
-        tau += qd.optical_length_to_top(atm, g, p2, sig, max(q, 4), 1)[..., None] * atm.extinction[g]
-    return np.where(lit[:, None], mus[:, None] * np.exp(-tau), 0.0)
+    with ThreadPoolExecutor(max_workers=_THREADS) as pool:
+        for _ in pool.map(fn, cells):
+            pass
 
 
 _MAX_AUTO_ORDERS = 200
@@ -399,9 +574,8 @@ def _field_for(atm_obj, atm, grid, albedo, orders, tol=None):
     """Field and Σ S^k for ``orders`` orders (or, with ``orders=None``, until ``tol``)."""
 
     def result(st):
-        n = orders
-        if n is None:
-            n, tail = st.converged_orders(tol, _MAX_AUTO_ORDERS)
+        if orders is None:
+            S_sum, n, tail = st.converged_sum(tol, _MAX_AUTO_ORDERS)
             if tail > tol:
                 warnings.warn(
                     f"multiple_scattering: after {n} orders the estimated remaining orders "
@@ -411,7 +585,8 @@ def _field_for(atm_obj, atm, grid, albedo, orders, tol=None):
                     RuntimeWarning,
                     stacklevel=4,
                 )
-        return st.field, st.source_sum(n)
+            return st.field, S_sum
+        return st.field, st.source_sum(orders)
 
     try:
         key = (atm_obj, grid, float(albedo))
@@ -436,7 +611,7 @@ def multiple_scattering(
     altitude=0.0,
     orders: int | None = None,
     ground_albedo: float = 0.0,
-    order_tolerance: float = 1e-4,
+    order_tolerance: float = 1e-3,
     grid: MultipleScatteringGrid | None = None,
     batch_size: int = 2048,
 ):
@@ -518,7 +693,7 @@ def multiple_scattering(
             if act.size == 0:
                 continue
             mc = _march(atm, r0, vb[act], s, field.grid.order)
-            out[i0 + act] = _gather(field, mc, S_sum)
+            out[i0 + act] = _gather(field, mc, S_sum, threads=_THREADS)
         return out
 
     if vf.shape[0] >= TABLE_THRESHOLD and r0 <= atm.top_radius:
