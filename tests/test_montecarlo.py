@@ -82,7 +82,9 @@ def _mc_radiance(atm, view, sun, altitude, n_paths, max_order, albedo, seed):
         r = np.linalg.norm(pos, axis=1)
         mu_s = np.einsum("ij,j->i", pos, sun) / r
         near, _ = _exit_distance(pos, np.broadcast_to(sun, pos.shape), R)
-        shadow = near > 0
+        # a sun ray whose line misses the planet (near = inf) is lit: without isfinite
+        # every point of a low-sun (sunset) geometry with r·sin θ_s > R was shadowed
+        shadow = np.isfinite(near) & (near > 0)
         tau = np.zeros(len(pos))
         for c in cons:
             tau += c.extinction_array[0] * ac.optical_length(
@@ -426,7 +428,7 @@ def _twilight_case(elev, name, n_paths, seed=21):
 
 def _n_paths(elev, name):
     tol = _twilight_tol(elev)[0]
-    need = int((3.0 * _PER_PATH_RSD[elev, name] / tol) ** 2 * 1.2)  # 3σ ≤ tol with 20 % margin
+    need = int((3.0 * _PER_PATH_RSD[elev, name] / tol) ** 2 * 1.5)  # 3σ ≤ tol, 50 % margin
     return min(need, 60_000 if (elev, name) in _QUICK else _MAX_PATHS)
 
 
