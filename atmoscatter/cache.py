@@ -516,7 +516,7 @@ def load(kind: str, key: str) -> dict[str, np.ndarray] | None:
     path = _entry_path(root, kind, key)
     try:
         fh = open(path, "rb")
-    except FileNotFoundError:
+    except (FileNotFoundError, NotADirectoryError):  # a miss (the path cannot exist)
         return _memory_load(root, kind, key)
     except OSError as exc:
         _warn_once(f"read:{path}", f"atmoscatter cache: cannot read {path} ({exc}); ignoring it")
