@@ -293,7 +293,8 @@ def _cmd_cache(args, out) -> int:
             print(f"{e.kind:<{w}}  {e.key[:12]:<12}  {_fmt_bytes(e.size):>10}  "
                   f"{_fmt_age(now - e.mtime):>6}  {_fmt_meta(e.meta)}", file=out)
     total = sum(e.size for e in items)
-    print(f"{len(items)} entries, {_fmt_bytes(total)} in {root} "
+    noun = "entry" if len(items) == 1 else "entries"
+    print(f"{len(items)} {noun}, {_fmt_bytes(total)} in {root} "
           f"(cap {_fmt_bytes(cache.max_bytes())}; age = since last use)", file=out)
     return 0
 
