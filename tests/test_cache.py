@@ -516,3 +516,10 @@ def test_cli_errors_are_one_line(cache_root, capsys, monkeypatch):
     assert main(["cache", "dir"]) == 1
     captured = capsys.readouterr()
     assert captured.out == "" and "off" in captured.err
+
+
+def test_docstring_examples():
+    import doctest
+
+    result = doctest.testmod(cache, optionflags=doctest.ELLIPSIS, verbose=False)
+    assert result.attempted >= 3 and result.failed == 0
