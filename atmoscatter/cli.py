@@ -12,6 +12,8 @@ Sub-commands
     Write a tone-mapped PNG.
 ``atmoscatter models``
     List the sky models available in this installation.
+``atmoscatter cache list [--kind K] [--json]``, ``cache clear [--kind K]``, ``cache dir``
+    Inspect or empty the on-disk cache of precomputed fields (:mod:`atmoscatter.cache`).
 
 Errors are printed as one line (``atmoscatter: error: ...``) with exit status 2
 (1 when some scenes of a batch failed); ``--debug`` shows the traceback.
@@ -86,6 +88,17 @@ def _parser() -> argparse.ArgumentParser:
     common(v)
 
     sub.add_parser("models", help="list the available sky models")
+
+    c = sub.add_parser("cache", help="list or clear the cache of precomputed fields")
+    csub = c.add_subparsers(dest="cache_command", metavar="ACTION", required=True)
+    cl = csub.add_parser("list", help="list the cached entries (most recently used first)")
+    cl.add_argument("--kind", default=None, help="only entries of this kind")
+    cl.add_argument("--json", action="store_true", help="print the entries as JSON")
+    common(cl)
+    cc = csub.add_parser("clear", help="remove cached entries")
+    cc.add_argument("--kind", default=None, help="only entries of this kind")
+    common(cc)
+    common(csub.add_parser("dir", help="print the cache directory"))
     add_compare_parser(sub)
     return p
 
@@ -221,6 +234,71 @@ def _cmd_models(args, out) -> int:
     return 0
 
 
+def _fmt_bytes(n: float) -> str:
+    for unit in ("B", "KiB", "MiB", "GiB"):
+        if n < 1024 or unit == "GiB":
+            return f"{n:.0f} {unit}" if unit == "B" else f"{n:.1f} {unit}"
+        n /= 1024
+    return f"{n:.1f} GiB"  # pragma: no cover
+
+
+def _fmt_age(seconds: float) -> str:
+    seconds = max(seconds, 0.0)
+    for limit, div, unit in ((120, 1, "s"), (7200, 60, "min"), (172800, 3600, "h")):
+        if seconds < limit:
+            return f"{seconds / div:.0f} {unit}"
+    return f"{seconds / 86400:.0f} d"
+
+
+def _fmt_meta(meta) -> str:
+    if meta is None:
+        return "(unreadable header)"
+    parts = []
+    for k, v in meta.items():
+        if isinstance(v, list):
+            v = ",".join(f"{x:g}" if isinstance(x, float) else str(x) for x in v)
+        parts.append(f"{k}={v}")
+    text = " ".join(parts)
+    return text if len(text) <= 70 else text[:69] + "…"
+
+
+def _cmd_cache(args, out) -> int:
+    from . import cache  # noqa: PLC0415
+
+    root = cache.cache_dir()
+    if root is None:
+        print(f"atmoscatter: the cache is off ({cache.ENV_DIR}=off)", file=sys.stderr)
+        return 1 if args.cache_command == "dir" else 0
+    if args.cache_command == "dir":
+        print(root, file=out)
+        return 0
+    if args.cache_command == "clear":
+        n = len(cache.entries(args.kind))
+        freed = cache.clear(args.kind)
+        what = f" of kind {args.kind!r}" if args.kind else ""
+        noun = "entry" if n == 1 else "entries"
+        print(f"removed {n} {noun}{what} ({_fmt_bytes(freed)}) from {root}", file=out)
+        return 0
+    items = cache.entries(args.kind)
+    if args.json:
+        print(json.dumps([{"kind": e.kind, "key": e.key, "size": e.size, "mtime": e.mtime,
+                           "last_used": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime(e.mtime)),
+                           "meta": e.meta, "path": e.path} for e in items], indent=1), file=out)
+        return 0
+    now = time.time()
+    if items:
+        w = max(4, *(len(e.kind) for e in items))
+        print(f"{'kind':<{w}}  {'key':<12}  {'size':>10}  {'age':>6}  meta", file=out)
+        for e in items:
+            print(f"{e.kind:<{w}}  {e.key[:12]:<12}  {_fmt_bytes(e.size):>10}  "
+                  f"{_fmt_age(now - e.mtime):>6}  {_fmt_meta(e.meta)}", file=out)
+    total = sum(e.size for e in items)
+    noun = "entry" if len(items) == 1 else "entries"
+    print(f"{len(items)} {noun}, {_fmt_bytes(total)} in {root} "
+          f"(cap {_fmt_bytes(cache.max_bytes())}; age = since last use)", file=out)
+    return 0
+
+
 def main(argv=None) -> int:
     """Entry point of the ``atmoscatter`` console script; returns the exit status."""
     parser = _parser()
@@ -233,7 +311,8 @@ def main(argv=None) -> int:
     # is noise for a command-line user (the package does not plot)
     warnings.filterwarnings("ignore", message='"Matplotlib" related API features')
     commands = {"render": _cmd_render, "batch": _cmd_batch, "info": _cmd_info,
-                "preview": _cmd_preview, "models": _cmd_models, "compare": run_compare}
+                "preview": _cmd_preview, "models": _cmd_models, "compare": run_compare,
+                "cache": _cmd_cache}
     try:
         return commands[args.command](args, sys.stdout)
     except KeyboardInterrupt:

@@ -7,13 +7,27 @@ cases.  No deadline anywhere: the machines are shared and timing is not what is 
 
 from __future__ import annotations
 
+import atexit
 import os
+import shutil
+import tempfile
 
 import numpy as np
 import pytest
 from hypothesis import settings
 
 from atmoscatter.models import ModelAdapter, register_model, unregister_model
+
+# Hermetic cache: the whole session (and every subprocess, notebook kernel or Dask worker it
+# starts, which inherit the environment) uses a fresh, empty cache directory instead of the
+# user's ~/.cache/atmoscatter, so no test can pass or fail because of fields left by an
+# earlier run or another checkout.  Set when conftest is imported, i.e. before any test
+# module (the cache reads the variable at every call).
+# EXCEPT: tests that check the caching itself (tests/test_cache.py) point
+# ATMOSCATTER_CACHE_DIR at their own tmp_path with monkeypatch.
+_SESSION_CACHE = tempfile.mkdtemp(prefix="atmoscatter-test-cache-")
+os.environ["ATMOSCATTER_CACHE_DIR"] = _SESSION_CACHE
+atexit.register(shutil.rmtree, _SESSION_CACHE, ignore_errors=True)
 
 settings.register_profile("ci", derandomize=True, deadline=None, print_blob=True)
 settings.register_profile("dev", deadline=None, print_blob=True)
