@@ -68,6 +68,7 @@ def test_default_orders_warn_when_the_cap_is_reached(monkeypatch):
 
     monkeypatch.setattr(M, "_MAX_AUTO_ORDERS", 3)
     monkeypatch.setattr(M, "_CACHE", {})
+    monkeypatch.setattr(M, "_RESULTS", {})
     with pytest.warns(RuntimeWarning, match="after 3 orders"):
         multiple_scattering(_atm(scale=4.0), _V, _S, order_tolerance=1e-12)
 
@@ -143,17 +144,57 @@ def test_large_batches_use_a_table_within_1e3(monkeypatch):
     assert np.max(np.abs(d12 - r12) / r12) < 1e-3
 
 
-def test_concurrent_calls_share_one_field():
+def test_concurrent_calls_share_one_field(monkeypatch):
     """Renderers call from several threads: the cached field is built and extended once."""
     from concurrent.futures import ThreadPoolExecutor
 
     import atmoscatter.sky.multiple as ms_mod
 
+    monkeypatch.setenv("ATMOSCATTER_CACHE_DIR", "off")  # build the field here, not load it
     atm = _atm()
     serial = multiple_scattering(atm, _V, _S, orders=4, ground_albedo=0.3)
     ms_mod._CACHE.clear()
+    ms_mod._RESULTS.clear()
     with ThreadPoolExecutor(4) as pool:
         outs = list(pool.map(lambda k: multiple_scattering(atm, _V, _S, orders=k,
                                                            ground_albedo=0.3), [4, 3, 4, 4]))
     np.testing.assert_allclose(outs[0], serial, rtol=1e-12)
     np.testing.assert_allclose(outs[2], serial, rtol=1e-12)
+
+
+def test_field_is_kept_on_disk_and_read_back(tmp_path, monkeypatch):
+    """The converged field is stored in the persistent cache; a new process (here: empty
+    in-process caches, and a field state that would fail if built) reads it back, and a
+    corrupted entry is detected and recomputed, never used."""
+    import atmoscatter.sky.multiple as ms_mod
+    from atmoscatter import cache
+
+    monkeypatch.setenv("ATMOSCATTER_CACHE_DIR", str(tmp_path))
+    monkeypatch.setattr(ms_mod, "_CACHE", {})
+    monkeypatch.setattr(ms_mod, "_RESULTS", {})
+    atm = _atm()
+    first = multiple_scattering(atm, _V, _S, orders=3, ground_albedo=0.3)
+    (entry,) = cache.entries("multiple_scattering")
+    assert entry.meta["ground_albedo"] == 0.3
+
+    class Boom:
+        def __init__(self, *a, **k):
+            raise AssertionError("the field was recomputed instead of read from disk")
+
+    monkeypatch.setattr(ms_mod, "_CACHE", {})
+    monkeypatch.setattr(ms_mod, "_RESULTS", {})
+    real_state = ms_mod._FieldState
+    monkeypatch.setattr(ms_mod, "_FieldState", Boom)
+    again = multiple_scattering(atm, _V, _S, orders=3, ground_albedo=0.3)
+    np.testing.assert_allclose(again, first, rtol=1e-13)
+    # flip bytes in the middle of the stored arrays: the checksum catches it
+    with open(entry.path, "r+b") as fh:
+        fh.seek(entry.size // 2)
+        chunk = fh.read(64)
+        fh.seek(entry.size // 2)
+        fh.write(bytes(b ^ 0xFF for b in chunk))
+    monkeypatch.setattr(ms_mod, "_RESULTS", {})
+    monkeypatch.setattr(ms_mod, "_FieldState", real_state)
+    with pytest.warns(cache.CacheWarning):
+        recomputed = multiple_scattering(atm, _V, _S, orders=3, ground_albedo=0.3)
+    np.testing.assert_allclose(recomputed, first, rtol=1e-12)

@@ -52,6 +52,8 @@ import numpy as np
 
 from .._validate import check_range
 from . import _quadrature as qd
+from ._ms_gather import HAVE_KERNEL as _HAVE_KERNEL
+from ._ms_gather import Located as _Located
 from ._ms_gather import gather as _gather_kernel
 from .single import (
     TABLE_THRESHOLD,
@@ -439,8 +441,6 @@ class _FieldState:
             th = field.ths[j]
             s = np.array([np.sin(th), 0.0, np.cos(th)])
             mc = _march(atm, r0, dirs, s, grid.order)
-            if self.keep:
-                self.marches[i, j] = mc
             # order 1: single scattering of the tabulated sun transmittance (the phase
             # function is constant along a straight ray) + ground-reflected direct sun
             P = np.stack([np.asarray(ph(np.clip(dirs @ s, -1.0, 1.0)), dtype=float)
@@ -451,6 +451,8 @@ class _FieldState:
                                                                    mc.mus_end)
                 path += np.where(mc.ground[:, None], mc.t_end * albedo / np.pi * e0, 0.0)
             L[i, j] = path.reshape(n_mu, n_phi, nwl)
+            if self.keep:
+                self.marches[i, j] = _compact(field, mc)
 
         _run_cells(first, cells)
         self.W = field.phase_matrices()  # (nsc, n_out, ndir)
@@ -471,6 +473,7 @@ class _FieldState:
         Lnew = np.zeros_like(self.L)
         dirs = f.directions()
         n_mu, n_phi = f.shape[2:]
+        S_flat = np.ascontiguousarray(S).reshape(f.shape_out + (-1,))
 
         def cell(ij):
             i, j = ij
@@ -480,7 +483,11 @@ class _FieldState:
                 s = np.array([np.sin(th), 0.0, np.cos(th)])
                 mc = _march(self.atm, self.atm.planet_radius + f.h_nodes[i], dirs, s,
                             f.grid.order)
-            path = _gather(f, mc, S)
+            if not isinstance(mc, _Compact):
+                path = _gather(f, mc, S)
+            else:
+                nsc, nwl = S.shape[-2:]
+                path = mc.loc.gather(S_flat, mc.wt).reshape(-1, nsc, nwl).sum(axis=1)
             if E is not None:
                 e = _interp_e(f, E, mc.mus_end)
                 path += np.where(mc.ground[:, None], mc.t_end * self.albedo / np.pi * e, 0.0)
@@ -553,6 +560,29 @@ class _FieldState:
             k += 1
 
 
+@dataclass
+class _Compact:
+    """A node ray set kept between orders: located samples and float32 weights."""
+
+    loc: object  # _ms_gather.Located
+    wt: np.ndarray  # (N, M, n_sc * nwl) float32
+    ground: np.ndarray
+    t_end: np.ndarray
+    mus_end: np.ndarray
+
+
+def _compact(field: _Field, mc: _March):
+    """Keep what later orders need of a node march (about 1/3 of its memory), or the
+    march itself where no compiled kernel is available."""
+    if not _HAVE_KERNEL:
+        return mc
+    loc = _Located(field.shape_out, field.h_nodes, field.ths, field.mu_out,
+                   mc.h, mc.mus, mc.mu, mc.cphi)
+    N, M = mc.h.shape
+    wt = np.ascontiguousarray(mc.wt.reshape(N, M, -1), dtype=np.float32)
+    return _Compact(loc, wt, mc.ground, mc.t_end, mc.mus_end)
+
+
 def _run_cells(fn, cells):
     """Apply ``fn`` to every grid cell, over a small thread pool (the kernels and most
     NumPy operations release the GIL)."""
@@ -570,37 +600,101 @@ def _run_cells(fn, cells):
 _MAX_AUTO_ORDERS = 200
 
 
-def _field_for(atm_obj, atm, grid, albedo, orders, tol=None):
-    """Field and Σ S^k for ``orders`` orders (or, with ``orders=None``, until ``tol``)."""
+#: version of the algorithm behind a stored field: bump when the field's values change
+_FIELD_VERSION = 2
+_RESULTS: dict = {}  # in-process: disk-cache key -> (S_sum, orders, tail)
+_RESULTS_MAX = 8
 
-    def result(st):
-        if orders is None:
-            S_sum, n, tail = st.converged_sum(tol, _MAX_AUTO_ORDERS)
-            if tail > tol:
-                warnings.warn(
-                    f"multiple_scattering: after {n} orders the estimated remaining orders "
-                    f"still add {tail:.1e} (relative) of the multiple-scattering source, above "
-                    f"order_tolerance={tol:g}; the atmosphere is optically thick — pass "
-                    "orders= explicitly to go further",
-                    RuntimeWarning,
-                    stacklevel=4,
-                )
-            return st.field, S_sum
-        return st.field, st.source_sum(orders)
 
+def _warn_tail(n, tail, tol):
+    if tail > tol:
+        warnings.warn(
+            f"multiple_scattering: after {n} orders the estimated remaining orders "
+            f"still add {tail:.1e} (relative) of the multiple-scattering source, above "
+            f"order_tolerance={tol:g}; the atmosphere is optically thick — pass "
+            "orders= explicitly to go further",
+            RuntimeWarning,
+            stacklevel=4,
+        )
+
+
+def _state_for(atm_obj, atm, grid, albedo):
+    """The in-process field state (successive orders so far) of an atmosphere; the
+    caller holds ``_CACHE_LOCK``."""
     try:
         key = (atm_obj, grid, float(albedo))
         hash(key)
-    except TypeError:  # unhashable custom atmosphere: no caching
-        return result(_FieldState(atm, grid, albedo))
-    # one lock: renderers call from several threads, and a field state must neither be
-    # built twice nor extended by two threads at once
-    with _CACHE_LOCK:
-        if key not in _CACHE:
-            if len(_CACHE) >= _CACHE_MAX:
-                _CACHE.pop(next(iter(_CACHE)))
-            _CACHE[key] = _FieldState(atm, grid, albedo)
-        return result(_CACHE[key])
+    except TypeError:  # unhashable custom atmosphere: no in-process caching
+        return _FieldState(atm, grid, albedo)
+    if key not in _CACHE:
+        if len(_CACHE) >= _CACHE_MAX:
+            _CACHE.pop(next(iter(_CACHE)))
+        _CACHE[key] = _FieldState(atm, grid, albedo)
+    return _CACHE[key]
+
+
+def _disk_key(atm_obj, grid, albedo, orders, tol):
+    """Key of the persistent cache, or ``None`` for objects that cannot be fingerprinted
+    (duck-typed custom atmospheres)."""
+    from .. import cache
+
+    try:
+        return cache.fingerprint(
+            "multiple_scattering", _FIELD_VERSION, atm_obj, grid, float(albedo),
+            None if orders is None else int(orders),
+            None if orders is not None else [float(tol), _ACCELERATION, _MAX_AUTO_ORDERS],
+        )
+    except TypeError:
+        return None
+
+
+def _field_for(atm_obj, atm, grid, albedo, orders, tol=None):
+    """Field and Σ S^k for ``orders`` orders (or, with ``orders=None``, until ``tol``).
+
+    Three levels: the summed source of this exact request in the process (``_RESULTS``),
+    in the persistent cache (:mod:`atmoscatter.cache`, shared by processes and Dask
+    workers; checksummed, written atomically), and else computed from the in-process
+    field state of the atmosphere (which keeps the orders already computed, so asking
+    for more orders later only adds the missing ones).
+    """
+    from .. import cache
+
+    field = _Field(atm, grid)
+    key = _disk_key(atm_obj, grid, albedo, orders, tol)
+
+    def compute():
+        # one lock: renderers call from several threads, and a field state must neither
+        # be built twice nor extended by two threads at once
+        with _CACHE_LOCK:
+            st = _state_for(atm_obj, atm, grid, albedo)
+            if orders is None:
+                S_sum, n, tail = st.converged_sum(tol, _MAX_AUTO_ORDERS)
+            else:
+                S_sum, n, tail = st.source_sum(orders), orders, 0.0
+        return {"S_sum": S_sum, "orders": np.array(n), "tail": np.array(tail)}
+
+    if key is None:
+        res = compute()
+    else:
+        with _CACHE_LOCK:
+            res = _RESULTS.get(key)
+        if res is None:
+            meta = {
+                "atmosphere": str(getattr(atm_obj, "name", "")),
+                "wavelengths": [float(w) for w in np.atleast_1d(getattr(atm_obj, "wavelengths", ()))],
+                "ground_albedo": float(albedo),
+                "grid": [grid.n_altitude, grid.n_sun, grid.n_mu, grid.n_phi, grid.order],
+            }
+            res = cache.cached("multiple_scattering", key, compute, meta=meta)
+            if res["S_sum"].shape != field.shape_out + (len(atm.scatterers), atm.n_wavelengths):
+                res = compute()  # a stale entry of another layout: never trust it
+            with _CACHE_LOCK:
+                if len(_RESULTS) >= _RESULTS_MAX:
+                    _RESULTS.pop(next(iter(_RESULTS)))
+                _RESULTS[key] = res
+    if orders is None:
+        _warn_tail(int(res["orders"]), float(res["tail"]), tol)
+    return field, res["S_sum"]
 
 
 def multiple_scattering(
