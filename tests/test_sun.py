@@ -526,15 +526,128 @@ def test_high_latitude_and_twilight():
 
 
 def test_polar_season_edges_are_consistent():
-    """Around the start of polar day at 70°N: every day is either polar or has both events,
-    and the day length grows monotonically to 24 h."""
+    """Around the start of polar day at 70°N: flags and events agree, and the day length
+    grows monotonically to 24 h (the first day has a sunrise but no sunset)."""
     dates = np.datetime64("2024-05-01") + np.arange(40).astype("timedelta64[D]")
     r = S.sunrise_sunset(dates, 70.0, 20.0)
-    has_both = ~np.isnat(r.sunrise) & ~np.isnat(r.sunset)
-    assert np.all(has_both ^ r.polar_day)
+    has_rise, has_set = ~np.isnat(r.sunrise), ~np.isnat(r.sunset)
+    assert np.all((has_rise | has_set) ^ r.polar_day)
     assert r.polar_day[-1] and not r.polar_day[0]
     hours = r.day_length.astype("timedelta64[s]").astype(float) / 3600
     assert np.all(np.diff(hours) >= -1e-6)
+
+
+# (latitude, longitude) [deg]: Longyearbyen, Utqiaġvik, Tromsø, 66°N (a few polar days only),
+# McMurdo, Syowa, Casey — polar seasons of every length, both hemispheres, both sides of 0°
+HIGH_LATITUDE_SITES = [(78.22, 15.65), (71.29, -156.79), (69.65, 18.96), (66.0, 25.0),
+                       (-77.85, 166.67), (-69.0, 39.58), (-66.28, 110.53)]  # fmt: skip
+
+
+def _check_year_against_elevation_grid(lat, lon):
+    """One year of sunrise_sunset at a site against a 60-s grid of ``sun_position``.
+
+    Semantics checked (documented in ``sunrise_sunset``): the solar day of a date is the 24 h
+    centred on its transit; its sunrise/sunset are the upward/downward horizon crossings of
+    the Sun's centre in that window; ``polar_day``/``polar_night`` mean no crossing at all;
+    ``day_length`` is the time above the horizon in the window.
+
+    Reference: the true (unrefracted) topocentric elevation from ``ac.sun_position`` every
+    60 s, crossings of −0.8333° located by linear interpolation — an independent event
+    search (sign changes on a grid) sharing only the ephemeris with the code under test.
+    Tolerances: ours neglects the parallax (≤ 8.8″ = 0.0025°) and the grid interpolates
+    linearly over 60 s (the elevation's curvature over 30 s adds < 0.001°); an altitude
+    error ε moves a crossing by ε/rate, so times agree within 2 s + 0.004°/rate (rate from
+    the grid, [°/s]).  Days where the horizon lies within 0.01° of the window's altitude
+    extremes (grazing: a crossing's existence depends on 0.0025°) or a crossing lies within
+    5 min of the window edge (its day is a matter of the edge's rounding) are checked for
+    internal consistency only.
+    """
+    dates = np.datetime64("2024-01-01") + np.arange(366).astype("timedelta64[D]")
+    r = S.sunrise_sunset(dates, lat, lon)
+    h0 = np.rad2deg(S.HORIZON_APPARENT)
+    ms = np.timedelta64(1, "ms")
+    day = np.timedelta64(86_400_000, "ms")
+    start, end = r.noon - day // 2, r.noon + day // 2
+
+    # --- internal consistency on every day
+    has_r, has_s = ~np.isnat(r.sunrise), ~np.isnat(r.sunset)
+    assert not np.any(r.polar_day & r.polar_night)
+    assert np.all((r.polar_day | r.polar_night) == ~(has_r | has_s))
+    assert np.all(r.day_length[r.polar_day] == day)
+    assert np.all(r.day_length[r.polar_night] == 0 * ms)
+    assert np.all((r.sunrise[has_r] >= start[has_r]) & (r.sunrise[has_r] <= end[has_r]))
+    assert np.all((r.sunset[has_s] >= start[has_s]) & (r.sunset[has_s] <= end[has_s]))
+    both = has_r & has_s
+    expect = np.where(r.sunset > r.sunrise, r.sunset - r.sunrise,
+                      (r.sunset - start) + (end - r.sunrise))  # fmt: skip
+    expect = np.where(both, expect, np.where(has_r, end - r.sunrise, r.sunset - start))
+    ev = has_r | has_s
+    assert np.all(np.abs((r.day_length - expect)[ev] / ms) <= 2)  # ms rounding of 3 values
+    assert np.all((r.day_length >= 0 * ms) & (r.day_length <= day))
+
+    # --- independent event search on a grid of sun_position
+    t = np.arange(start[0] - day, end[-1] + day, np.timedelta64(60, "s")).astype("datetime64[ms]")
+    sp = ac.sun_position(t, lat, lon, refraction=False)
+    f = (90.0 - np.rad2deg(sp.true_zenith)) - h0
+    i = np.nonzero((f[:-1] > 0) != (f[1:] > 0))[0]
+    frac = f[i] / (f[i] - f[i + 1])
+    tc = t[i] + np.round(frac * 60e3).astype(np.int64) * ms
+    up = f[i + 1] > 0
+    rate = np.abs(f[i + 1] - f[i]) / 60.0  # [deg/s]
+
+    def f_at(times):
+        return (90.0 - np.rad2deg(ac.sun_position(times, lat, lon, refraction=False).true_zenith)) - h0
+
+    f_start, f_noon, f_end = f_at(start), f_at(r.noon), f_at(end)
+    grazing = (np.abs(f_start) < 0.01) | (np.abs(f_noon) < 0.01) | (np.abs(f_end) < 0.01)
+    checked = 0
+    for k in range(dates.size):
+        inside = (tc >= start[k]) & (tc < end[k])
+        near_edge = np.any(np.abs((tc - start[k]) / ms) < 300e3) or np.any(np.abs((tc - end[k]) / ms) < 300e3)
+        if grazing[k] or near_edge:
+            continue
+        checked += 1
+        ups, downs = np.nonzero(inside & up)[0], np.nonzero(inside & ~up)[0]
+        assert ups.size <= 1 and downs.size <= 1, (dates[k], ups, downs)
+        assert has_r[k] == (ups.size == 1), (lat, lon, dates[k], "sunrise", r.sunrise[k])
+        assert has_s[k] == (downs.size == 1), (lat, lon, dates[k], "sunset", r.sunset[k])
+        for ours, j in ((r.sunrise[k], ups), (r.sunset[k], downs)):
+            if j.size:
+                tol_s = 2.0 + 0.004 / rate[j[0]]
+                assert abs((ours - tc[j[0]]) / ms) / 1e3 < tol_s, (dates[k], ours, tc[j[0]], tol_s)
+        if ups.size == downs.size == 0:
+            assert r.polar_day[k] == (f_noon[k] > 0) and r.polar_night[k] == (f_noon[k] < 0)
+        # time above the horizon: sample count (±60 s per crossing) vs the events
+        sel = (t >= start[k]) & (t < end[k])
+        above_s = 60.0 * np.count_nonzero(f[sel] > 0)
+        assert abs(above_s - (r.day_length[k] / ms) / 1e3) <= 60.0 * (ups.size + downs.size) + 60.0
+    assert checked >= 300
+    return r
+
+
+@pytest.mark.parametrize(("lat", "lon"), HIGH_LATITUDE_SITES)
+def test_high_latitude_year_flags_times_and_lengths_agree(lat, lon):
+    r = _check_year_against_elevation_grid(lat, lon)
+    one_event = np.isnat(r.sunrise) ^ np.isnat(r.sunset)
+    if abs(lat) > 67.0:
+        # the polar season has two edge days with a single event (the issue's days)
+        assert np.count_nonzero(r.polar_day) > 0 and np.count_nonzero(r.polar_night) > 0
+        assert np.count_nonzero(one_event) >= 2
+
+
+def test_midnight_sun_edge_day_reported_in_issue():
+    """Longyearbyen 2024-08-24: the Sun sets at 22:10 UTC after months of midnight sun.
+    The day has a sunset, so it is not polar day; its length is the time from the start of
+    the solar day (transit − 12 h) to the sunset."""
+    r = S.sunrise_sunset(np.datetime64("2024-08-24"), 78.22, 15.65)
+    assert not r.polar_day and not r.polar_night
+    assert np.isnat(r.sunrise) and not np.isnat(r.sunset)
+    start = r.noon - np.timedelta64(12, "h")
+    assert r.day_length == r.sunset - start
+    # the sunset against the grid search: elevation −0.8333° (pvlib SPA, parallax ≤ 0.0025°)
+    dts = S.default_delta_t(r.sunset)
+    _, true, _, _ = _pvlib_spa(np.atleast_1d(r.sunset), 78.22, 15.65, 0.0, 0.0, 12.0, dts)
+    assert abs((90.0 - true[0]) + 0.8333) < 0.004
 
 
 def test_sunrise_sunset_shapes_nan_and_bad_input():
