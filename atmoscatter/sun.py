@@ -91,6 +91,10 @@ _EARTH_RADIUS_SPA = 6378140.0
 _B_OVER_A = 0.99664719
 #: SPA refraction is applied while the true elevation is ≥ −(0.26667° + 0.5667°).
 _REFRACTION_LIMIT_DEG = -(0.26667 + 0.5667)
+#: Rise/set solve: stop when the bracket is below this [days] (1e-9 d = 86 µs) or after
+#: this many regula-falsi (Illinois) steps.
+_EVENT_TOL_DAYS = 1e-9
+_EVENT_ITERATIONS = 80
 
 
 # ---------------------------------------------------------------------------------------------
@@ -1057,14 +1061,20 @@ class SunriseSunset:
     Attributes
     ----------
     sunrise, sunset : ndarray of datetime64[ms]
-        UTC instants when the Sun's centre crosses the ``horizon`` altitude; NaT on days
-        without a crossing (polar day or polar night).
+        UTC instants when the Sun's centre crosses the ``horizon`` altitude upward /
+        downward during the solar day (the 24 h centred on ``noon``); NaT when it does not
+        (polar day or night, and on the first/last day of a polar season, which has only
+        one of the two events).
     noon : ndarray of datetime64[ms]
         UTC instant of the upper transit (solar noon); defined every day.
     polar_day, polar_night : ndarray of bool
-        The Sun stays above / below the ``horizon`` altitude all day.
+        No horizon crossing in the solar day and the Sun above / below the ``horizon``
+        altitude all of it.  A day with a sunrise or a sunset is never polar.
     day_length : ndarray of timedelta64[ms]
-        ``sunset − sunrise``; 24 h on polar days, 0 on polar nights.
+        Time the Sun spends above the ``horizon`` altitude during the solar day, from the
+        events: ``sunset − sunrise``; ``noon + 12 h − sunrise`` on a day with a sunrise
+        only, ``sunset − (noon − 12 h)`` on a day with a sunset only; 24 h on polar days,
+        0 on polar nights.
     """
 
     sunrise: np.ndarray
@@ -1147,18 +1157,32 @@ def sunrise_sunset(dates, latitude, longitude, *, horizon=HORIZON_APPARENT, delt
     -------
     SunriseSunset
         Arrays of the broadcast shape of the inputs (``sunrise``, ``sunset``, ``noon`` as
-        ``datetime64[ms]`` UTC).  Polar day/night give NaT with the matching flag set; NaT
-        dates or NaN coordinates give NaT and both flags False.
+        ``datetime64[ms]`` UTC).  Polar day/night give NaT with the matching flag set; the
+        first and last day of a polar season have one event and neither flag; NaT dates or
+        NaN coordinates give NaT and both flags False.
 
     Notes
     -----
     Transit: iterate ``t ← t − H(t)/2π`` on the geocentric hour angle (3 steps, < 0.1 s).
-    Rise/set: iterate ``t ← t − (H(t) ± H₀(t))/2π`` with ``cos H₀ = (sin h₀ − sin φ sin δ) /
-    (cos φ cos δ)`` and δ, H from the SPA at the current estimate (Meeus 1998 Ch. 15; Reda &
-    Andreas 2004 App. A.2 uses the same geometry with a three-day interpolation).  Parallax and
-    the observer's height are neglected as in SPA A.2 (effect < 2 s).  A day is polar when
-    ``|cos H₀| > 1`` at transit or during the iteration.  Accuracy: a few seconds against the
-    SPA geometry, plus the real-world uncertainty of refraction at the horizon (minutes).
+    Solar day: ``[noon − 12 h, noon + 12 h]``.  On each half the hour angle runs from about
+    −π to 0 (then 0 to π), so the altitude ``sin a = sin φ sin δ + cos φ cos δ cos H`` is
+    monotone there and each half holds at most one crossing of the horizon ``h₀``: a sign
+    change of ``sin a − sin h₀`` between the half's ends.  It is solved by Newton steps kept
+    inside that bracket (bisection when a step leaves it), starting from the hour-angle
+    formula ``cos H₀ = (sin h₀ − sin φ sin δ)/(cos φ cos δ)`` at noon (Meeus 1998 Ch. 15),
+    with δ and H from the SPA at every step, to 1e-9 d (0.1 ms).  An upward crossing is
+    the sunrise, a downward one the sunset; the flags and ``day_length`` follow from the
+    events alone, so they always agree with the times (a day with a sunset is not polar
+    day).  Parallax and the observer's height are neglected as in SPA A.2 (effect < 2 s at
+    low latitude).  Accuracy: a few seconds against the SPA geometry, plus the real-world
+    uncertainty of refraction at the horizon (minutes).
+
+    Limits of the semantics: a dip of the Sun's centre below (or rise above) the horizon
+    within about a minute of the window edge, where the altitude is at its daily minimum
+    (its depth is then < 1e-4°), can be missed or attributed to the neighbouring day; within
+    ~0.06° of a pole, where the daily altitude swing is smaller than the declination's
+    drift, more than two crossings a day can occur around the equinoxes and only one of
+    each kind is reported.
 
     Examples
     --------
@@ -1195,43 +1219,95 @@ def sunrise_sunset(dates, latitude, longitude, *, horizon=HORIZON_APPARENT, delt
     bad = ~np.isfinite(noon) | ~np.isfinite(phi) | ~np.isfinite(np.broadcast_to(sin_h0, shape))
     noon = np.where(bad, np.nan, noon)
 
-    def cos_h0(c):
+    # The solar day of a date is the 24 h centred on its transit, [noon − 12 h, noon + 12 h].
+    # On each half the Sun's altitude is monotone (the hour angle runs from about −π to 0,
+    # then 0 to π), so each half holds at most one horizon crossing: an upward one is the
+    # sunrise, a downward one the sunset.  It is found by Newton steps safeguarded by the
+    # bracket (bisection when a step leaves it).  Flags and lengths then follow from the
+    # events alone, so they always agree.
+    n = int(np.prod(shape))
+    lon_f, sphi_f, cphi_f = lon_rad.ravel(), sphi.ravel(), cphi.ravel()
+    sin_h0_f = np.broadcast_to(sin_h0, shape).ravel()
+    dt_f = None if dt_user is None else np.broadcast_to(dt_user, shape).ravel()
+    bad_f = bad.ravel()
+
+    def excess(t, idx):
+        """sin(altitude) − sin(horizon) and its time derivative [1/day] at ``t`` for the
+        flat elements ``idx`` (geocentric, parallax neglected; the declination's drift is
+        left out of the slope, which only slows the safeguarded Newton steps)."""
+        c = _spa_columns(t, None if dt_f is None else dt_f[idx])
         sdec = c["sin_dec"]
         cdec = np.sqrt(1.0 - sdec * sdec)
-        den = np.maximum(cphi * cdec, 1e-12)
-        with np.errstate(invalid="ignore"):
-            return (sin_h0 - sphi * sdec) / den
+        H = _hour_angle(t, lon_f[idx], c["q"])
+        f = sphi_f[idx] * sdec + cphi_f[idx] * cdec * np.cos(H) - sin_h0_f[idx]
+        return f, -cphi_f[idx] * cdec * np.sin(H) * _TWO_PI, sdec
 
-    c = cols(noon)
-    ch = cos_h0(c)
+    every = np.arange(n)
+    noon_f = np.where(bad_f, 0.0, noon.ravel())
+    t_start, t_end = noon_f - 0.5, noon_f + 0.5
+    f_start, f_end = excess(t_start, every)[0], excess(t_end, every)[0]
+    f_noon, _, sdec_noon = excess(noon_f, every)
+    f_start, f_noon, f_end = (np.where(bad_f, np.nan, f) for f in (f_start, f_noon, f_end))
+    # first guess: the hour-angle formula with the declination at noon
+    with np.errstate(invalid="ignore", divide="ignore"):
+        ch = (sin_h0_f - sphi_f * sdec_noon) / (cphi_f * np.sqrt(1.0 - sdec_noon * sdec_noon))
+    h_guess = np.arccos(np.clip(np.where(np.isfinite(ch), ch, 0.0), -1.0, 1.0)) / _TWO_PI
+
+    def crossing(lo, f_lo, hi, f_hi, guess):
+        """Time of the sign change of ``excess`` in [lo, hi] (NaN where the signs agree)."""
+        out = np.full(n, np.nan)
+        idx = np.nonzero((f_lo > 0) != (f_hi > 0))[0]
+        sgn = np.where(f_lo[idx] > 0, -1.0, 1.0)  # sgn·excess < 0 at a, > 0 at b
+        a, b = lo[idx], hi[idx]
+        t = np.clip(guess[idx], a + 1e-6 * (b - a), b - 1e-6 * (b - a))
+        prev = np.full(idx.size, np.inf)
+        for _ in range(_EVENT_ITERATIONS):
+            if idx.size == 0:
+                break
+            f, fp, _ = excess(t, idx)
+            below = sgn * f < 0
+            a, b = np.where(below, t, a), np.where(below, b, t)
+            with np.errstate(invalid="ignore", divide="ignore"):
+                step = f / fp
+            newton = t - step
+            ok = np.isfinite(newton) & (newton >= a) & (newton <= b)
+            # converged: a Newton step below the tolerance (it may round to t itself); or
+            # steps contracting at the rate r = |step|/|previous step| < 1/2 with the error
+            # left after this one, r/(1 − r)·|step| (geometric tail), below the tolerance;
+            # an exact root; or a bracket narrower than the tolerance
+            ast = np.abs(step)
+            with np.errstate(invalid="ignore", divide="ignore"):
+                tail = ast * ast / (prev - ast)
+            fast = np.isfinite(prev) & (2.0 * ast < prev) & (tail < _EVENT_TOL_DAYS)
+            done = (ok & ((ast < _EVENT_TOL_DAYS) | fast)) | (f == 0) | (b - a < _EVENT_TOL_DAYS)
+            tn = np.where(ok, newton, 0.5 * (a + b))
+            out[idx[done]] = np.where(f[done] == 0, t[done], tn[done])
+            keep = ~done
+            prev = np.where(ok, np.abs(step), np.inf)[keep]
+            idx, sgn, a, b, t = idx[keep], sgn[keep], a[keep], b[keep], tn[keep]
+        out[idx] = t  # not converged in _EVENT_ITERATIONS steps (not seen): best estimate
+        return out
+
+    c1 = crossing(t_start, f_start, noon_f, f_noon, noon_f - h_guess)
+    c2 = crossing(noon_f, f_noon, t_end, f_end, noon_f + h_guess)
+    up1 = f_noon > f_start  # direction of the crossing in the first half (if any)
+    up2 = f_end > f_noon
+    rise = np.where(np.isfinite(c1) & up1, c1, np.where(np.isfinite(c2) & up2, c2, np.nan))
+    sset = np.where(np.isfinite(c1) & ~up1, c1, np.where(np.isfinite(c2) & ~up2, c2, np.nan))
+    rise, sset, f_noon = rise.reshape(shape), sset.reshape(shape), f_noon.reshape(shape)
+    t_start, t_end = t_start.reshape(shape), t_end.reshape(shape)
+    has_r, has_s = np.isfinite(rise), np.isfinite(sset)
+    quiet = ~bad & ~has_r & ~has_s  # no crossing in the whole solar day
+    polar_day = quiet & (f_noon > 0)
+    polar_night = quiet & ~(f_noon > 0)
+    # time above the horizon within the solar day, from the events
     with np.errstate(invalid="ignore"):
-        polar_night = ch > 1.0
-        polar_day = ch < -1.0
-    events = []
-    for sign in (-1.0, 1.0):
-        t = noon + sign * np.arccos(np.clip(np.where(np.isfinite(ch), ch, 0.0), -1, 1)) / _TWO_PI
-        lost = polar_day | polar_night | bad
-        for _ in range(4):
-            c = cols(t)
-            chi = cos_h0(c)
-            with np.errstate(invalid="ignore"):
-                lost = lost | (np.abs(np.where(np.isfinite(chi), chi, 0.0)) > 1.0)
-            target = sign * np.arccos(np.clip(np.where(np.isfinite(chi), chi, 0.0), -1, 1))
-            err = _hour_angle(t, lon_rad, c["q"]) - target
-            err = (err + np.pi) % _TWO_PI - np.pi
-            t = t - err / _TWO_PI
-        events.append(np.where(lost, np.nan, t))
-    rise, sset = events
-    # a rise/set lost during the iteration (days at the edge of the polar season) counts as
-    # polar day or night according to the noon altitude
-    lost = ~bad & ~np.isfinite(rise + sset) & ~polar_day & ~polar_night
-    sdec = cols(noon)["sin_dec"]
-    noon_sin_alt = sphi * sdec + cphi * np.sqrt(1.0 - sdec * sdec)
-    polar_day = polar_day | (lost & (noon_sin_alt > sin_h0))
-    polar_night = polar_night | (lost & ~(noon_sin_alt > sin_h0))
-    polar_day = polar_day & ~bad
-    polar_night = polar_night & ~bad
-    length_days = np.where(polar_day, 1.0, np.where(polar_night, 0.0, sset - rise))
+        both = np.where(sset > rise, sset - rise, (sset - t_start) + (t_end - rise))
+    length_days = np.select(
+        [bad, has_r & has_s, has_r, has_s, polar_day],
+        [np.nan, both, t_end - rise, sset - t_start, 1.0],
+        default=0.0,
+    )
     length = np.where(np.isfinite(length_days), length_days, 0.0) * 86_400e3
     day_length = np.asarray(np.round(length)).astype(np.int64).astype("timedelta64[ms]")
     day_length = np.where(np.isfinite(length_days), day_length, np.timedelta64("NaT", "ms"))

@@ -6,6 +6,8 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from scipy import integrate
 
 import atmoscatter as ac
@@ -363,3 +365,144 @@ def test_path_integral_bad_input():
         ac.path_integral(np.inf, 1.0)
     with pytest.raises(ValueError, match="s must be"):
         ac.path_integral(1.0, -1.0)
+
+
+# ------------------------------------------------------ exact limits (issue 10, part 8)
+# The physics of Eq. 1/3/4 fixes every 0·∞ and ∞/∞ case: no extinction keeps the object's
+# radiance (F_ex = e^0 = 1), no scatterer adds no light (∫ 0 dt = 0 however long the path),
+# and over an infinite path with β_ex > 0 the in-scattered light is the airlight
+# E β_sc(θ)/β_ex, which is finite however small β_ex is.  Reference values below are those
+# closed forms, evaluated directly.
+VIEW = np.array([0.0, 1.0, 0.0])  # horizontal, μ = view·sun = 0.6
+MU_VIEW = 0.6
+
+
+def test_aerial_perspective_transparent_medium_keeps_L0_at_infinite_distance():
+    L0 = np.array([[1.0, 2.0, 3.0], [0.0, 5e3, 7.0]])
+    for d in (np.inf, 1e300, 0.0):
+        got = ac.aerial_perspective(L0, d, VIEW, SUN, haze=None, air_scattering=[0.0, 0.0, 0.0])
+        # F_ex = e^{-0·s} = 1 exactly and L_in = 0 exactly: the copy is exact by construction
+        np.testing.assert_array_equal(got, L0)
+    got32 = ac.aerial_perspective(L0.astype(np.float32), np.float32(np.inf), VIEW, SUN, haze=None,
+                                  air_scattering=[0.0, 0.0, 0.0])  # fmt: skip
+    assert got32.dtype == np.float32
+    np.testing.assert_array_equal(got32, L0.astype(np.float32))  # exact, as above
+
+
+def test_aerial_perspective_per_channel_limits_at_infinite_distance():
+    # channel 0: transparent (L0 kept); 1: ordinary air (airlight E f_R, since β_sc = β_ex);
+    # 2: subnormal β (1e-310: 1/β overflows, the ratio β_sc/β_ex = 1 does not)
+    E = np.array([1.0e5, 2.0e5, 3.0e5])
+    L0 = np.array([10.0, 20.0, 30.0])
+    got = ac.aerial_perspective(L0, np.inf, VIEW, SUN, haze=None, sun_extinction=False,
+                                sun_irradiance=E, air_scattering=[0.0, 1e-5, 1e-310])  # fmt: skip
+    airlight = E * f_rayleigh(MU_VIEW)
+    np.testing.assert_allclose(got, [L0[0], airlight[1], airlight[2]], rtol=1e-15)
+
+
+def test_aerial_perspective_infinite_distance_is_the_limit_of_large_distances():
+    # continuity at s = inf: with β s = 800, e^{-β s} < 1e-347 underflows, so the finite
+    # path already equals the limit to rounding (a few ulps from the different formulas)
+    for beta in (1e-5, 1e-300):
+        kw = {"haze": None, "sun_extinction": False, "sun_irradiance": [1.0, 2.0, 3.0],
+              "air_scattering": [beta] * 3}  # fmt: skip
+        far = ac.aerial_perspective([5.0, 5.0, 5.0], 800.0 / beta, VIEW, SUN, **kw)
+        inf = ac.aerial_perspective([5.0, 5.0, 5.0], np.inf, VIEW, SUN, **kw)
+        np.testing.assert_allclose(inf, far, rtol=4e-16)
+        assert np.all(np.isfinite(inf))
+
+
+def test_inscattering_zero_coefficients_over_infinite_lengths_is_zero():
+    z = np.zeros(3)
+    E = np.ones(3)
+    for sa, sh in ((np.inf, np.inf), (np.inf, 0.0), (0.0, np.inf), (np.inf, 1e3), (1e3, np.inf)):
+        got = ac.hoffman_preetham_inscattering(sa, sh, 0.2, E, z, z, z, z, 0.5)
+        np.testing.assert_array_equal(got, 0.0)  # ∫ 0 dt: exactly 0
+    # no sunlight: 0 even for a scatterer without extinction over an infinite path (inf·0)
+    b = np.array([1e-5, 2e-5, 4e-5])
+    got = ac.hoffman_preetham_inscattering(np.inf, np.inf, 0.2, z, b, z, z, z, 0.5)
+    np.testing.assert_array_equal(got, 0.0)
+    # ... while with sunlight that limit is E β_sc f s → inf (not NaN)
+    got = ac.hoffman_preetham_inscattering(np.inf, np.inf, 0.2, E, b, z, z, z, 0.5)
+    assert np.all(np.isposinf(got))
+
+
+@pytest.mark.parametrize("zero", ["air", "haze"])
+def test_inscattering_absent_constituent_with_infinite_length(zero):
+    # a constituent with zero coefficients adds neither light nor extinction, whatever its
+    # optical length: the result is Eq. 4 of the other constituent over its own length
+    b = np.array([1e-5, 2e-5, 4e-5])
+    bex = b * 1.3
+    z = np.zeros(3)
+    E = np.array([1.0, 2.0, 3.0])
+    mu, g, s = 0.3, 0.7, 1500.0
+    if zero == "air":
+        got = ac.hoffman_preetham_inscattering(np.inf, s, mu, E, z, z, b, bex, g)
+        ref = E * b * f_hg(mu, g) / bex * -np.expm1(-bex * s)
+    else:
+        got = ac.hoffman_preetham_inscattering(s, np.inf, mu, E, b, bex, z, z, g)
+        ref = E * b * f_rayleigh(mu) / bex * -np.expm1(-bex * s)
+    np.testing.assert_allclose(got, ref, rtol=1e-14)
+
+
+def test_inscattering_tiny_extinction_over_infinite_lengths_is_the_airlight():
+    # β_sc/β_ex f(θ) for β down to subnormal values (1/β overflows below 5.6e-309)
+    mu, E = 0.2, np.ones(3)
+    for scale in (1.0, 1e-300, 1e-305, 1e-315):  # β from 4e-5 down to 1e-320 [m⁻¹]
+        b = np.array([1e-5, 2e-5, 4e-5]) * scale
+        assert np.all(b > 0)
+        got = ac.hoffman_preetham_inscattering(np.inf, np.inf, mu, E, b, b, 0.0, 0.0, 0.5)
+        # β_sc = β_ex: the ratio is exactly 1 even for subnormal β, so f_R to rounding
+        np.testing.assert_allclose(got, f_rayleigh(mu), rtol=1e-15)
+    # outer shell of air (tiny β, infinite) seen through 100 m of haze
+    b = np.array([1e-5, 2e-5, 4e-5]) * 1e-305
+    bh = np.array([1e-3, 1e-3, 1e-3])
+    got = ac.hoffman_preetham_inscattering(np.inf, 100.0, mu, E, b, b, bh, bh, 0.5)
+    inner = bh * f_hg(mu, 0.5) / bh * -np.expm1(-bh * 100.0) + b * f_rayleigh(mu) * 100.0
+    ref = inner + f_rayleigh(mu) * np.exp(-bh * 100.0)
+    np.testing.assert_allclose(got, ref, rtol=1e-14)
+
+
+def test_inscattering_float32_limits():
+    # float32 in, float32 out, computed in float64: a float32-subnormal β (1e-39) over an
+    # infinite path gives the airlight instead of 1/β = inf in float32
+    b = np.array([1e-5, 2e-5, 4e-5])
+    args = dict(s_air=np.inf, s_haze=np.inf, cos_theta=0.2, sun_irradiance=np.ones(3))
+    for scale in (1.0, 1e-34):
+        b32 = (b * scale).astype(np.float32)
+        got = ac.hoffman_preetham_inscattering(
+            *[np.float32(args[k]) for k in ("s_air", "s_haze", "cos_theta")],
+            np.float32(args["sun_irradiance"]), b32, b32, np.float32(0.0), np.float32(0.0), 0.5,
+        )
+        assert got.dtype == np.float32
+        # the float32 cosine 0.2 and one final rounding to float32: a few float32 ulps
+        np.testing.assert_allclose(got, f_rayleigh(float(np.float32(0.2))), rtol=3e-7)
+    z = np.zeros(3, dtype=np.float32)
+    got = ac.hoffman_preetham_inscattering(np.float32(np.inf), np.float32(np.inf), np.float32(0.2),
+                                           np.ones(3, np.float32), z, z, z, z, 0.5)  # fmt: skip
+    assert got.dtype == np.float32
+    np.testing.assert_array_equal(got, 0.0)
+
+
+@settings(max_examples=80, deadline=None)
+@given(
+    beta=st.one_of(st.just(0.0), st.floats(min_value=1e-320, max_value=1e-1)),
+    s=st.one_of(st.just(np.inf), st.floats(min_value=0.0, max_value=1e308)),
+    L0=st.floats(min_value=0.0, max_value=1e6),
+)
+def test_property_aerial_perspective_is_a_convex_mix_of_L0_and_airlight(beta, s, L0):
+    # For air only (β_sc = β_ex = β) Eq. 1 + Eq. 4 read L = F L0 + (1 − F) A with
+    # F = e^{−β s} ∈ [0, 1] and the airlight A = E f_R(θ): L lies between L0 and A (a few
+    # ulps of slack for the rounding of F, 1 − F and the sum), never NaN, for every β ≥ 0
+    # (subnormal included) and every s ∈ [0, inf]; with β = 0 or s = 0 it is L0 exactly.
+    E = 1.0e5
+    got = ac.aerial_perspective([L0] * 3, s, VIEW, SUN, haze=None, sun_extinction=False,
+                                sun_irradiance=[E] * 3, air_scattering=[beta] * 3)  # fmt: skip
+    A = E * f_rayleigh(MU_VIEW)
+    lo, hi = min(L0, A), max(L0, A)
+    assert np.all(np.isfinite(got))
+    assert np.all(got >= lo * (1 - 1e-14)) and np.all(got <= hi * (1 + 1e-14))
+    if beta == 0.0 or s == 0.0:
+        np.testing.assert_array_equal(got, L0)  # F = 1, L_in = 0 exactly: exact by construction
+    if beta > 0 and np.isinf(s):
+        np.testing.assert_allclose(got, A, rtol=1e-14)  # F = 0, β_sc/β_ex = 1 exactly

@@ -39,6 +39,13 @@ only::
 ``(1 − e^{−β s})/β`` is evaluated as :func:`path_integral` (``−expm1(−βs)/β``, limit ``s`` for
 β = 0), so the model is exact and finite for β s from 0 through 1e-12 to 1e4 and beyond.
 
+Limits (every 0·∞ and ∞/∞ case is the exact limit, never NaN): a zero extinction keeps
+the object's radiance at any distance (``F_ex = 1``, ``L = L_0`` for ``s = inf``); a zero
+scattering coefficient adds no light over any path (``L_in = 0``, also for ``s = inf``); over
+an infinite path with β_ex > 0 the in-scattered light is the airlight ``E β_sc(θ)/β_ex``,
+formed as a ratio so that it stays finite for tiny (even subnormal) β; no sunlight
+(``E_sun = 0``) gives ``L_in = 0``.  float32 inputs are computed in float64.
+
 Units: ``E_sun`` is an irradiance-like quantity per channel (default: linear-RGB
 illuminance [lx] of the extraterrestrial sun, so ``L_in`` is in cd m⁻², the units of
 :func:`atmoscatter.preetham_sky_rgb`); coefficients in m⁻¹; distances in m.
@@ -356,33 +363,71 @@ def _mul(beta, s):
         return np.where(beta == 0, 0.0, beta * s)
 
 
-def _phase_terms(cos_theta, b_sc_air, b_sc_haze, g):
-    """Angular scattering coefficients ``β_scAir f_R(θ)`` and ``β_scHaze f_HG(θ)``. [m⁻¹ sr⁻¹]"""
+def _phases(cos_theta, g):
+    """Phase functions ``f_R(θ)`` and ``f_HG(θ, g)`` with a trailing channel axis. [sr⁻¹]"""
     mu = np.asarray(cos_theta)[..., None]
-    air = b_sc_air * rayleigh_phase(mu)
-    haze = b_sc_haze * henyey_greenstein_phase(mu, g)
-    return air, haze
+    return rayleigh_phase(mu), henyey_greenstein_phase(mu, g)
 
 
-def _two_shell(sa, sh, air_t, haze_t, ba, bh):
+def _scatter_integral(pairs, beta, s):
+    """``Σᵢ β_scᵢ fᵢ ∫₀^s e^{−β t} dt`` with the exact limits of every 0·∞ and ∞/∞ path.
+
+    ``pairs`` are ``(β_scᵢ, fᵢ)`` (coefficient [m⁻¹] ≥ 0, phase function [sr⁻¹] ≥ 0),
+    ``beta`` ≥ 0 finite, ``s`` ≥ 0 or ``inf``:
+
+    - β > 0, s finite: ``(Σ β_scᵢ fᵢ)·(−expm1(−β s)/β)`` (:func:`path_integral`, ≤ ``s``:
+      finite for every finite s, even for a subnormal β);
+    - β > 0, s = ∞: the airlight ``Σ (β_scᵢ/β) fᵢ``, ratio first (a tiny β would overflow
+      ``1/β`` and turn ``β_sc·(1/β)`` into inf, or inf·0 = NaN for β_sc = 0);
+    - β = 0: ``(Σ β_scᵢ fᵢ)·s`` with ``0·∞ = 0`` (no scatterer over an infinite path adds
+      nothing; a scatterer without extinction adds ``inf``, the exact limit).
+    """
+    terms = sum(b * f for b, f in pairs)
+    with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
+        pos = beta > 0
+        fin = np.isfinite(s)
+        finite = terms * _path_integral(beta, np.where(fin, s, 0.0))
+        safe_b = np.where(pos, beta, 1.0)
+        airlight = sum((b / safe_b) * f for b, f in pairs)
+        no_ext = np.where(terms == 0, 0.0, terms * s)
+    return np.where(pos, np.where(fin, finite, airlight), no_ext)
+
+
+def _times_sun(E, K):
+    """``E_sun · K`` with ``0 · inf = 0`` (no sunlight, no in-scattering)."""
+    with np.errstate(invalid="ignore"):
+        return np.where(E == 0, 0.0, E * K)
+
+
+def _two_shell(sa, sh, f_r, f_hg, b_sa, b_sh, ba, bh):
     """Two-shell in-scattering integral per unit E_sun (errata 000.6), general s_air, s_haze.
 
     The inner shell (length ``s1 = min(s_air, s_haze)``) holds both constituents; the outer
-    one (``|s_air − s_haze|``) only the constituent with the longer optical length. Each
-    ``(1 − e^{−βs})/β`` is a :func:`path_integral`.
+    one (``|s_air − s_haze|``) only the constituent with the longer optical length,
+    attenuated by the inner shell.  Each shell is a :func:`_scatter_integral`, so zero
+    coefficients, infinite lengths and tiny coefficients over infinite lengths give the
+    exact limits (never NaN).
     """
     sa = sa[..., None]
     sh = sh[..., None]
     s1 = np.minimum(sa, sh)
     b_tot = ba + bh
-    inner = (air_t + haze_t) * _path_integral(b_tot, s1)
+    inner = _scatter_integral(((b_sa, f_r), (b_sh, f_hg)), b_tot, s1)
     with np.errstate(invalid="ignore"):
-        outer_len = np.where(sa >= sh, sa - s1, sh - s1)
-        outer_len = np.where(np.isinf(sa) & np.isinf(sh), 0.0, outer_len)
-    outer_t = np.where(sa >= sh, air_t, haze_t)
-    outer_b = np.where(sa >= sh, ba, bh)
-    outer = outer_t * _path_integral(outer_b, outer_len) * np.exp(-_mul(b_tot, s1))
-    return inner + outer
+        # both infinite: no outer shell (inf − inf); else the (possibly infinite) excess
+        outer_len = np.where(np.isinf(sa) & np.isinf(sh), 0.0, np.abs(sa - sh))
+    air_out = _scatter_integral(((b_sa, f_r),), ba, outer_len)
+    haze_out = _scatter_integral(((b_sh, f_hg),), bh, outer_len)
+    outer = np.where(sa >= sh, air_out, haze_out)
+    # the outer shell seen through the inner one, T = e^{−τ}: nothing gets through an
+    # opaque inner shell (τ = inf) and a zero outer shell adds nothing; an infinite outer
+    # shell (a scatterer without extinction over an infinite path) behind a finite τ stays
+    # inf even where e^{−τ} underflows to 0
+    tau = _mul(b_tot, s1)
+    with np.errstate(invalid="ignore"):
+        seen = np.where(np.isinf(outer), np.inf, outer * np.exp(-tau))
+        seen = np.where((outer == 0) | np.isinf(tau), 0.0, seen)
+    return inner + seen
 
 
 def hoffman_preetham_inscattering(
@@ -424,8 +469,17 @@ def hoffman_preetham_inscattering(
     Returns
     -------
     numpy.ndarray
-        ``L_in`` [E_sun units sr⁻¹, e.g. cd m⁻²], shape broadcast + (C,). Exactly 0 at zero
-        length; for β_ex → 0 the limit ``E_sun β_sc(θ) s``; finite for ``s → ∞``.
+        ``L_in`` [E_sun units sr⁻¹, e.g. cd m⁻²], shape broadcast + (C,); float32 if all
+        inputs are float32 (computed in float64).  Exactly 0 at zero length; for β_ex → 0
+        the limit ``E_sun β_sc(θ) s``; for ``s = inf`` and β_ex > 0 the airlight
+        ``E_sun β_sc(θ)/β_ex`` (finite for any β_ex > 0, subnormal included).
+
+    Notes
+    -----
+    Exact limits instead of 0·∞ or ∞/∞: a constituent with zero coefficients adds neither
+    light nor extinction whatever its length (``inf`` included); zero scattering over an
+    infinite path gives 0; ``E_sun = 0`` gives 0; scattering without extinction
+    (β_sc > 0 = β_ex, unphysical) over an infinite path gives ``inf``.
     """
     sa = _nonneg(s_air, "s_air")
     sh = _nonneg(s_haze, "s_haze")
@@ -434,8 +488,13 @@ def hoffman_preetham_inscattering(
     b_ea = check_positive(beta_ex_air, "beta_ex_air", allow_zero=True, unit="m^-1")
     b_sh = check_positive(beta_sc_haze, "beta_sc_haze", allow_zero=True, unit="m^-1")
     b_eh = check_positive(beta_ex_haze, "beta_ex_haze", allow_zero=True, unit="m^-1")
-    air_t, haze_t = _phase_terms(as_float_array(cos_theta, "cos_theta"), b_sa, b_sh, g)
-    return E * _two_shell(sa, sh, air_t, haze_t, b_ea, b_eh)
+    mu = as_float_array(cos_theta, "cos_theta")
+    out_dtype = np.result_type(sa, sh, E, mu, b_sa, b_ea, b_sh, b_eh, np.float32)
+    f_r, f_hg = _phases(mu.astype(np.float64), g)
+    f64 = [np.asarray(a, dtype=np.float64) for a in (sa, sh, b_sa, b_sh, b_ea, b_eh)]
+    K = _two_shell(*f64[:2], f_r, f_hg, *f64[2:])
+    out = _times_sun(E.astype(np.float64), K).astype(out_dtype, copy=False)
+    return out[()] if out.ndim == 0 else out
 
 
 # ----------------------------------------------------------------------------------------------
@@ -508,8 +567,8 @@ def hoffman_preetham_sky(
         s_air = la * np.asarray(relative_optical_length(theta_v))
         s_haze = s_air * (lh / la)
         mu = np.where(nan, 0.0, np.clip(vh @ sun, -1.0, 1.0))
-        air_t, haze_t = _phase_terms(mu, b_sa, b_sh, gg)
-        L = E * _two_shell(s_air, s_haze, air_t, haze_t, b_ea, b_eh)
+        f_r, f_hg = _phases(mu, gg)
+        L = _times_sun(E, _two_shell(s_air, s_haze, f_r, f_hg, b_sa, b_sh, b_ea, b_eh))
         out[sl] = np.where(nan[:, None], np.nan, L)
     return out.reshape(v.shape)
 
@@ -546,8 +605,11 @@ def aerial_perspective(L0, distance, view_direction, sun_direction, **options):
     Returns
     -------
     numpy.ndarray
-        Radiance at the eye, shape (..., 3); exactly ``L0`` where ``distance == 0``.
-        float32 ``L0`` gives float32.
+        Radiance at the eye, shape (..., 3); exactly ``L0`` where ``distance == 0`` and,
+        per channel, where the extinction coefficient is 0 (at any distance, ``inf``
+        included).  For ``distance = inf`` and β_ex > 0 the airlight
+        ``E_sun β_sc(θ)/β_ex`` (finite however small β_ex).  float32 ``L0`` gives float32.
+        ``L0`` should be finite (an infinite ``L0`` at infinite distance is ∞·0 = NaN).
     """
     unknown = sorted(set(options) - set(_AP_OPTIONS))
     if unknown:
@@ -594,10 +656,10 @@ def _aerial_chunk(L0, d, v, sun, E, b_sa, b_sh, g, b_ex):
     vh = _unit(v.astype(np.float64))
     bad_dir = np.isnan(vh).any(axis=-1)  # NaN or zero-length view directions
     mu = np.where(bad_dir, 0.0, np.clip(vh @ sun, -1.0, 1.0))
-    air_t, haze_t = _phase_terms(mu, b_sa, b_sh, g)
+    f_r, f_hg = _phases(mu, g)
     dd = d.astype(np.float64)[..., None]
-    F = np.exp(-_mul(b_ex, dd))
-    Lin = E * (air_t + haze_t) * _path_integral(b_ex, dd)
+    F = np.exp(-_mul(b_ex, dd))  # 0·inf = 0: a transparent medium keeps L0 at any distance
+    Lin = _times_sun(E, _scatter_integral(((b_sa, f_r), (b_sh, f_hg)), b_ex, dd))
     out = F * L0 + Lin
     if np.any(bad_dir):
         out = np.where(bad_dir[..., None], np.nan, out)
