@@ -97,3 +97,35 @@ def test_peak_memory_bounded(earth):
         del out
     assert extra[1_000_000] < 150e6
     assert extra[1_000_000] < extra[100_000] + 60e6
+
+
+# twilight and hazy low-sun large batches (issue 10).  The default size keeps a CI run
+# (--benchmark-disable) at seconds; measure the 10⁶ case with
+#   ATMOSCATTER_BENCH_N=1000000 python -m pytest benchmarks/bench_scattering.py -k "twilight_large or low_sun"
+_N_LARGE = int(__import__("os").environ.get("ATMOSCATTER_BENCH_N", "4096"))
+
+
+@pytest.mark.parametrize("elev", [-6.0, -12.0, -18.0])
+def test_single_scattering_twilight_large(benchmark, earth, elev):
+    """Sun below the horizon, default method (graded; fully shadowed paths are skipped)."""
+    v = _upper_hemisphere(_N_LARGE)
+    e = np.radians(elev)
+    sun = np.array([0.0, np.cos(e), np.sin(e)])
+    out = benchmark.pedantic(ac.single_scattering, args=(earth, v, sun), rounds=1)
+    assert np.all(np.isfinite(out)) and np.all(out >= 0)
+
+
+def test_single_scattering_low_sun_hazy_large(benchmark):
+    """Turbidity 6, sun 1° high: the checked table (build included, cache cleared)."""
+    import atmoscatter.sky.single as single_mod
+
+    atm = ac.earth_turbidity_atmosphere(6)
+    v = _upper_hemisphere(_N_LARGE)
+    sun = np.array([0.0, np.cos(np.radians(1.0)), np.sin(np.radians(1.0))])
+
+    def setup():
+        single_mod._TABLE_CACHE.clear()
+        return (atm, v, sun), {}
+
+    out = benchmark.pedantic(ac.single_scattering, setup=setup, rounds=1)
+    assert np.all(np.isfinite(out)) and np.all(out >= 0)

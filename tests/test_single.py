@@ -512,6 +512,106 @@ def test_default_switches_to_table_only_when_safe(monkeypatch):
 
 
 # ----------------------------------------------------------------------------------------
+# one answer whatever the batch size (issue 10): large-batch default vs the reference
+# ----------------------------------------------------------------------------------------
+_SWEEP_T = (1.5, 3.0, 6.0, 10.0)
+_SWEEP_ELEV = (90.0, 30.0, 5.0, 2.0, 1.0, 0.0, -3.0, -6.0, -12.0, -18.0)
+
+
+def _latlong(width=64, height=64):
+    from atmoscatter.directions import LatLongDirections
+
+    d = LatLongDirections(width, height)
+    return d.directions(0, d.size)[0]
+
+
+def _check_batch_independent(atm, elev, alt, stride):
+    """The default for a 64 × 64 lat-long batch (4096 = TABLE_THRESHOLD directions, the
+    whole sphere) against ``method="reference"`` (rtol 1e-6, the graded rule refined until
+    successive levels agree) and against the small-batch default (batches of < 4096), on
+    every ``stride``-th direction: 1e-3 maximum relative error for every wavelength value
+    of at least TABLE_FLOOR × the largest reference value of that wavelength."""
+    import atmoscatter.sky.single as single_mod
+
+    v = _latlong()
+    assert v.shape[0] >= single_mod.TABLE_THRESHOLD
+    s = _sun(elev)
+    single_mod._TABLE_CACHE.clear()
+    big = single_scattering(atm, v, s, altitude=alt)[::stride]
+    sub = v[::stride]
+    ref = single_scattering(atm, sub, s, altitude=alt, method="reference")
+    small = single_scattering(atm, sub[: single_mod.TABLE_THRESHOLD - 1], s, altitude=alt)
+    assert np.all(big >= 0) and np.all(np.isfinite(big))
+    bright = ref >= single_mod.TABLE_FLOOR * ref.max(axis=0)
+    rel = np.abs(big - ref) / np.maximum(ref, 1e-300)
+    assert rel[bright].max() < 1e-3
+    rel_small = np.abs(big - small) / np.maximum(small, 1e-300)
+    assert rel_small[bright].max() < 1e-3
+    # no bright direction is clipped to zero
+    assert np.all(big[bright] > 0)
+
+
+@pytest.mark.parametrize("T, elev", [(6.0, 1.0), (10.0, 0.0), (3.0, -6.0)])
+def test_large_batch_default_matches_reference_quick(T, elev):
+    """Quick CI subset of the sweep below (hazy low suns where the old polynomial table
+    failed by up to 140 %, and twilight)."""
+    _check_batch_independent(ac.earth_turbidity_atmosphere(T), elev, 0.0, stride=7)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("alt", [0.0, 12e3])
+@pytest.mark.parametrize("elev", _SWEEP_ELEV)
+@pytest.mark.parametrize("T", _SWEEP_T)
+def test_large_batch_default_matches_reference_sweep(T, elev, alt):
+    """Full sweep: turbidity 1.5 … 10, sun from the zenith to 18° below the horizon,
+    ground and 12-km observer (the latter sits above the ozone layer's lower edge)."""
+    _check_batch_independent(ac.earth_turbidity_atmosphere(T), elev, alt, stride=3)
+
+
+def test_table_at_altitude_without_breakpoints_matches_reference():
+    """12-km observer without ozone: the table (sky and ground parts) is used by default."""
+    _check_batch_independent(ac.earth_atmosphere(ozone=False), 8.0, 12e3, stride=7)
+
+
+def test_table_self_check_falls_back_to_direct_integration():
+    """A deliberately coarse table (17 nodes in the horizon/zenith variable) fails its
+    self-check near the horizon of a turbidity-10 sky at 1° sun; directions in the failed
+    cells are integrated directly, so the result still meets 1e-3 against the reference."""
+    import atmoscatter.sky.single as single_mod
+
+    atm = ac.earth_turbidity_atmosphere(10)
+    v = _latlong(32, 32)
+    s = _sun(1.0)
+    single_mod._TABLE_CACHE.clear()
+    got = single_scattering(atm, v, s, method="table", samples=17)
+    table = next(iter(single_mod._TABLE_CACHE.values()))
+    assert table.n_bad > 0
+    ref = single_scattering(atm, v, s, method="reference")
+    bright = ref >= single_mod.TABLE_FLOOR * ref.max(axis=0)
+    assert _max_rel(got[bright], ref[bright]) < 1e-3
+    # without the fallback the coarse interpolant alone is measurably worse
+    for cells in table.bad_cells.values():
+        cells[:] = False
+    raw = single_scattering(atm, v, s, method="table", samples=17)
+    assert _max_rel(raw[bright], ref[bright]) > 1e-3
+
+
+def test_fully_shadowed_paths_are_exactly_zero():
+    """Deep twilight (sun 12° down): paths wholly inside the planet's shadow are skipped
+    and give exactly 0; the independent adaptive quadrature ``_quad_single`` (own shadow
+    geometry by bisection) gives 0 there too, and agrees on the lit paths near the
+    horizon toward the sun."""
+    atm = _exp_atmosphere()
+    v = np.array([_dir(0, 0), _dir(60, 0), _dir(89, 180), _dir(88, 180)])
+    s = _sun(-12.0)
+    got = single_scattering(atm, v, s)
+    exp = np.array([_quad_single(atm, vv, s, 0.0) for vv in v])
+    assert np.all(got[:2] == 0) and np.all(exp[:2] == 0)
+    assert np.all(exp[2:] > 0)
+    assert _max_rel(got[2:], exp[2:]) < 1e-3
+
+
+# ----------------------------------------------------------------------------------------
 # the error-against-run-time tool (smoke test; the full study is benchmarks/convergence.py)
 # ----------------------------------------------------------------------------------------
 def test_convergence_study_smoke(tmp_path):
