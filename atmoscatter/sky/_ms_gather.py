@@ -134,6 +134,70 @@ if _numba is not None:
                     out[n, c] += wt[n, s, c] * v
 
 
+    @_numba.njit(cache=True, nogil=True, error_model="numpy")
+    def _locate_rows(n_s, n_mu, n_phi, h_nodes, th_nodes, mu_nodes, h, mus, mu, cphi,
+                     base, frac):  # pragma: no cover - compiled
+        """Flat row index of the (0, 0, 0, 0) corner and the four fractions per sample."""
+        N, M = h.shape
+        for n in range(N):
+            for s in range(M):
+                i, fi = _locate(h_nodes, h[n, s])
+                x = mus[n, s]
+                x = -1.0 if x < -1.0 else (1.0 if x > 1.0 else x)
+                j, fj = _locate(th_nodes, np.arccos(x))
+                k, fk = _locate(mu_nodes, mu[n, s])
+                y = cphi[n, s]
+                y = -1.0 if y < -1.0 else (1.0 if y > 1.0 else y)
+                xl = np.arccos(y) / np.pi * (n_phi - 1)
+                m = int(xl)
+                if m > n_phi - 2:
+                    m = n_phi - 2
+                base[n, s] = ((i * n_s + j) * n_mu + k) * n_phi + m
+                frac[n, s, 0] = fi
+                frac[n, s, 1] = fj
+                frac[n, s, 2] = fk
+                frac[n, s, 3] = xl - m
+
+    @_numba.njit(cache=True, nogil=True, error_model="numpy")
+    def _gather_located(flat, n_s, n_mu, n_phi, base, frac, wt, out):  # pragma: no cover
+        C = flat.shape[1]
+        N, M = base.shape
+        a0 = np.empty(C)
+        a1 = np.empty(C)
+        d_h = n_s * n_mu * n_phi
+        d_s = n_mu * n_phi
+        for n in range(N):
+            for c in range(C):
+                out[n, c] = 0.0
+            for s in range(M):
+                b = base[n, s]
+                fi = frac[n, s, 0]
+                fj = frac[n, s, 1]
+                fk = frac[n, s, 2]
+                fm = frac[n, s, 3]
+                for c in range(C):
+                    a0[c] = 0.0
+                    a1[c] = 0.0
+                for di in range(2):
+                    wi = fi if di == 1 else 1.0 - fi
+                    for dk in range(2):
+                        wk = fk if dk == 1 else 1.0 - fk
+                        w = wi * wk
+                        w0 = w * (1.0 - fm)
+                        w1 = w * fm
+                        b0 = b + di * d_h + dk * n_phi
+                        b1 = b0 + d_s
+                        for c in range(C):
+                            a0[c] += flat[b0, c] * w0 + flat[b0 + 1, c] * w1
+                            a1[c] += flat[b1, c] * w0 + flat[b1 + 1, c] * w1
+                for c in range(C):
+                    if a0[c] > 0.0 and a1[c] > 0.0:
+                        v = a0[c] * np.exp(fj * np.log(a1[c] / a0[c]))
+                    else:
+                        v = (1.0 - fj) * a0[c] + fj * a1[c]
+                    out[n, c] += wt[n, s, c] * v
+
+
 HAVE_KERNEL = _numba is not None
 
 
@@ -164,3 +228,31 @@ def gather(table, h_nodes, th_nodes, mu_nodes, h, mus, mu, cphi, wt, *, threads=
         for f in futs:
             f.result()
     return out
+
+
+class Located:
+    """Interpolation coordinates of a set of marched samples on one field grid, computed
+    once and reused for every order (the node rays of the field are gathered again for
+    each order).  ``base`` (N, M) int32 rows, ``frac`` (N, M, 4) float32 fractions."""
+
+    def __init__(self, shape_out, h_nodes, th_nodes, mu_nodes, h, mus, mu, cphi):
+        n_h, n_s, n_mu, n_phi = shape_out
+        self.shape_out = shape_out
+        N, M = h.shape
+        base = np.empty((N, M), dtype=np.int64)
+        frac = np.empty((N, M, 4))
+        args = [np.ascontiguousarray(a, dtype=np.float64)
+                for a in (h_nodes, th_nodes, mu_nodes, h, mus, mu, cphi)]
+        _locate_rows(n_s, n_mu, n_phi, *args, base, frac)
+        self.base = base.astype(np.int32)
+        self.frac = frac.astype(np.float32)
+
+    def gather(self, table, wt):
+        """``Σ_m wt[n, m, c] S_c(sample)`` → (N, C) for ``table`` (*shape_out, C)."""
+        n_h, n_s, n_mu, n_phi = self.shape_out
+        C = table.shape[-1]
+        flat = np.ascontiguousarray(table, dtype=np.float64).reshape(-1, C)
+        N, M = self.base.shape
+        out = np.empty((N, C))
+        _gather_located(flat, n_s, n_mu, n_phi, self.base, self.frac, wt.reshape(N, M, C), out)
+        return out

@@ -333,8 +333,7 @@ class _Field:
 
     def __init__(self, atm: qd.PreparedAtmosphere, grid: MultipleScatteringGrid):
         self.atm, self.grid = atm, grid
-        thick = atm.top_radius - atm.planet_radius
-        self.h_nodes = thick * (np.arange(grid.n_altitude) / (grid.n_altitude - 1)) ** 2
+        self.h_nodes = _altitude_nodes(atm, grid.n_altitude)
         self.ths = grid.sun_zenith_nodes()
         self.th_max = float(self.ths[-1])
         xg, wg = np.polynomial.legendre.leggauss(grid.n_mu // 2)
@@ -381,6 +380,37 @@ class _Field:
             np.add.at(folded.T, target, p.T)
             out.append(folded)
         return np.asarray(out)
+
+
+def _altitude_nodes(atm: qd.PreparedAtmosphere, n: int, tau0: float = 0.05) -> np.ndarray:
+    """Altitude nodes [m] of the field, equidistributed in a mix of geometry and optics.
+
+    The coordinate ``F(h) = ½ √(h/H) + ½ (1 − ξ(h)/ξ(0))`` with ``H`` the atmosphere's
+    thickness and ``ξ(h) = ln(1 + τ(h)/τ₀)``, ``τ(h)`` the vertical optical depth above
+    ``h`` (largest over the wavelengths) and ``τ₀ = 0.05``, is sampled uniformly.  The
+    first half gives the quadratic clustering toward the ground that suits an Earth-like
+    exponential atmosphere (and keeps the thin upper layers, which are what twilight
+    lights, resolved); the second follows the optical depth, so an optically thick
+    layer gets nodes where its radiance field changes — within the first optical depths
+    below its top and near its base — whatever its density profile.
+    """
+    R, top = atm.planet_radius, atm.top_radius
+    thick = top - R
+    h = thick * np.linspace(0.0, 1.0, 4001) ** 2
+    k = np.zeros_like(h)
+    for g in range(len(atm.profiles)):
+        k = k + atm.density(g, h) * float(np.max(atm.extinction[g]))
+    seg = 0.5 * (k[1:] + k[:-1]) * np.diff(h)
+    tau = np.concatenate([np.cumsum(seg[::-1])[::-1], [0.0]])  # optical depth above h
+    xi = np.log1p(tau / tau0)
+    F = 0.5 * np.sqrt(h / thick)
+    if xi[0] > 0:
+        F = F + 0.5 * (1.0 - xi / xi[0])
+    else:
+        F = 2.0 * F
+    nodes = np.interp(np.linspace(0.0, F[-1], n), F, h)
+    nodes[0], nodes[-1] = 0.0, thick
+    return nodes
 
 
 def _ground_irradiance(field: _Field, L: np.ndarray) -> np.ndarray:
