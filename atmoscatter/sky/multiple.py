@@ -90,7 +90,7 @@ class MultipleScatteringGrid:
         Largest solar zenith angle on the grid [deg], in (90, 180] (beyond: the value at
         the last node, which is deep night for Earth-like planets).
     horizon_density : float
-        Node density at solar zenith ~97° relative to the density at the zenith [-], ≥ 1
+        Node density at solar zenith 92° relative to the density at the zenith [-], ≥ 1
         (1: uniform nodes).
     """
 
@@ -100,7 +100,7 @@ class MultipleScatteringGrid:
     n_phi: int = 9
     order: int = 3
     max_sun_zenith: float = 120.0
-    horizon_density: float = 4.0
+    horizon_density: float = 6.0
 
     def __post_init__(self):
         for name in ("n_altitude", "n_sun", "n_mu", "n_phi", "order"):
@@ -127,11 +127,11 @@ class MultipleScatteringGrid:
         """Solar zenith nodes [rad], increasing, from 0 to ``max_sun_zenith``.
 
         Equidistributed in the node density ``1 + (horizon_density − 1)
-        exp(−((θ − 97°)/13°)²)``: with the defaults about 6.3° apart near the zenith and
-        1.3° apart from the horizon to 18° below it.
+        exp(−((θ − 92°)/16°)²)``: with the defaults 8.4° apart at the zenith, 1.6° at
+        85° and 1.3–1.8° from the horizon to 18° below it.
         """
         th = np.linspace(0.0, float(self.max_sun_zenith), 4001)
-        dens = 1.0 + (float(self.horizon_density) - 1.0) * np.exp(-(((th - 97.0) / 13.0) ** 2))
+        dens = 1.0 + (float(self.horizon_density) - 1.0) * np.exp(-(((th - _SUN_CENTRE) / _SUN_WIDTH) ** 2))
         cdf = np.concatenate([[0.0], np.cumsum(0.5 * (dens[1:] + dens[:-1]) * np.diff(th))])
         nodes = np.interp(np.linspace(0.0, cdf[-1], self.n_sun), cdf, th)
         nodes[0], nodes[-1] = 0.0, float(self.max_sun_zenith)
@@ -143,8 +143,9 @@ MULTIPLE_SCATTERING_GRID = MultipleScatteringGrid()
 
 #: (view-zenith, azimuth) nodes of the table used for the multiple-scattering part of large
 #: batches (≥ TABLE_THRESHOLD directions, observer inside the atmosphere)
-_MS_TABLE_NODES = (129, 33)
+_MS_TABLE_NODES = (257, 33)
 
+_SUN_CENTRE, _SUN_WIDTH = 92.0, 16.0  # [deg] where the solar-zenith nodes are densest
 _CACHE: dict = {}
 _CACHE_LOCK = threading.Lock()
 _CACHE_MAX = 4
