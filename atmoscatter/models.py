@@ -38,6 +38,23 @@ models of one scene can be compared pixel by pixel.
   ``log λ``, extrapolated with the end slopes to 380–780 nm, 5 nm grid) — exact
   for a pure ``λ⁻⁴`` Rayleigh sky.  The output R, G, B are the colourspace's
   RGB of that XYZ: "R" is *not* the 680 nm radiance.
+
+Turbidity
+---------
+``scene.turbidity`` is ``T = (τ_m + τ_h)/τ_m``, the vertical *extinction* optical depth of
+molecules plus haze over that of the molecules (Rayleigh scattering only, ozone excluded),
+at 550 nm (Preetham et al. 1999; errata 004.3):
+
+* ``single_scattering`` / ``multiple_scattering``: the atmosphere
+  :func:`atmoscatter.earth_turbidity_atmosphere` (real air, haze τ_h = (T − 1)·0.0970).
+* ``hoffman_preetham``: real air (:func:`atmoscatter.hoffman_preetham_air_scattering`,
+  ``air="standard"``) and :func:`atmoscatter.turbidity_haze` — the same definition with the
+  model's 8.4 km / 1.25 km zenith optical lengths; same aerosol (Junge v = 4, ω = 0.9,
+  HG g = 0.8).
+* ``preetham`` and ``cie_clear`` (its zenith luminance): T is the *parameter of Preetham's
+  fit*.  Preetham et al. defined it by the same ratio for the skies they simulated, so the
+  renderer passes the scene's T unchanged; how bright that sky is against the physical
+  sky of the same T is measured in the validation report (brightness table).
 """
 
 from __future__ import annotations
@@ -520,22 +537,18 @@ def _hoffman_preetham_wavelengths(scene):
 
 
 def _prepare_hoffman_preetham(scene, plan):
-    from .scattering import mie_scattering, rayleigh_scattering  # noqa: PLC0415
-
     fn = _lookup("hoffman_preetham_sky")
-    haze_preset = _lookup("HazePreset")
+    haze_fn = _lookup("turbidity_haze")
+    air_fn = _lookup("hoffman_preetham_air_scattering")
     wl = np.asarray(plan.wavelengths, dtype=float)
     sun = plan.sun_direction
     triples = []
     for w in wl.reshape(-1, 3):  # the model works on three channels at a time
-        if plan.haze:
-            sc = np.asarray(mie_scattering(w, turbidity=scene.turbidity), dtype=float)
-            haze = haze_preset(f"turbidity {scene.turbidity:g}", tuple(sc),
-                               HOFFMAN_PREETHAM_HAZE_G,
-                               note="sea-level haze from atmoscatter.mie_scattering(turbidity)")
-        else:
-            haze = None  # turbidity 1: no haze shell terms
-        triples.append((np.asarray(rayleigh_scattering(w), dtype=float), haze))
+        # real air and the turbidity's haze: T = (τ_m + τ_h)/τ_m by extinction at 550 nm
+        # with the model's 8.4 km / 1.25 km optical lengths (as the physical presets)
+        haze = (haze_fn(scene.turbidity, tuple(w), air="standard", g=HOFFMAN_PREETHAM_HAZE_G)
+                if plan.haze else None)  # turbidity 1: no haze shell terms
+        triples.append((air_fn(w, air="standard"), haze))
     rgb_sampled = wl.size == 3
     convert = _per_irradiance_converter(wl, rgb_sampled, plan)
     ones = np.ones(3)
@@ -552,7 +565,8 @@ def _prepare_hoffman_preetham(scene, plan):
 
 _HOFFMAN_PREETHAM = ModelAdapter(
     name="hoffman_preetham",
-    description="Hoffman & Preetham (2002) two-shell sky (seed 000), haze from the turbidity",
+    description="Hoffman & Preetham (2002) two-shell sky (seed 000), real air and the "
+    "turbidity's haze (atmoscatter.turbidity_haze)",
     prepare=_prepare_hoffman_preetham,
     spectral=True,
     separate_haze=True,
@@ -603,7 +617,8 @@ def _register_available():
         register_model(_CIE_OVERCAST, replace=True)
     if _lookup("cie_clear_sky") is not None and _lookup("cie_zenith_luminance") is not None:
         register_model(_CIE_CLEAR, replace=True)
-    if all(_lookup(n) is not None for n in ("hoffman_preetham_sky", "HazePreset",
+    if all(_lookup(n) is not None for n in ("hoffman_preetham_sky", "turbidity_haze",
+                                             "hoffman_preetham_air_scattering",
                                              "HOFFMAN_PREETHAM_WAVELENGTHS")):
         register_model(_HOFFMAN_PREETHAM, replace=True)
     for name in ("single_scattering", "multiple_scattering"):

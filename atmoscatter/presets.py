@@ -2,9 +2,12 @@
 
 Public objects
 --------------
-- :func:`earth_atmosphere`: Earth after Bruneton (2017) (errata "reference constants").
-- :func:`earth_turbidity_atmosphere`: Earth whose haze is set by the turbidity
-  (Preetham 1999 definition; :func:`atmoscatter.mie_scattering`).
+- :func:`earth_atmosphere`: Earth with real (standard) air and Bruneton's (2017) aerosol,
+  ozone and radii (errata "reference constants"); ``rayleigh="bruneton"`` for his air.
+- :func:`bruneton_atmosphere`: Bruneton's (2017) Earth exactly as published (seed-000 air).
+- :func:`earth_turbidity_atmosphere`: Earth whose haze *extinction* is set by the turbidity
+  ``T = (τ_m + τ_h)/τ_m`` at 550 nm (Preetham 1999; errata 004.3).
+- :data:`EARTH_RAYLEIGH`: the air models the Earth presets accept.
 - :func:`mars_atmosphere`: a Mars-like atmosphere (CO₂ Rayleigh + dust).
 - :func:`keller_bohn_atmosphere`: reproduces the parameters of seed 002 (labelled look).
 - :data:`PRESETS`: name → constructor registry (used by scenes and the CLI).
@@ -27,6 +30,30 @@ References
   lower in the blue.
 - Keller, P. & Bohn, C.-A. (seed 002): Earth radii, scale heights 8 km / 1.2 km,
   Rayleigh ∝ λ⁻⁴, Mie ∝ λ⁻² (Table 1), three RGB samples.
+- Bodhaine, B. A. et al. (1999). On Rayleigh optical depth calculations. JAOT 16, 1854:
+  standard air (:func:`atmoscatter.rayleigh_scattering_standard_air`), sea-level Rayleigh
+  optical depth 0.0971 at 550 nm (their Table 3).
+- Hess, M., Koepke, P. & Schult, I. (1998). Optical properties of aerosols and clouds: the
+  software package OPAC. BAMS 79, 831–844: continental aerosols at 550 nm have
+  single-scattering albedo ≈ 0.89 (continental polluted, 80 % humidity; OPAC 3.1 output) to
+  ≈ 0.97 (clean) and asymmetry g ≈ 0.70.
+
+Aerosol model behind the turbidity
+----------------------------------
+:func:`earth_turbidity_atmosphere` uses one aerosol type whose amount is set by ``T``:
+
+- **Amount**: vertical haze extinction optical depth ``τ_h = (T − 1) τ_m`` at 550 nm, τ_m the
+  preset's own Rayleigh optical depth there (0.0971 for standard air), both integrated over
+  the preset's exact profiles from the ground to the top (errata 004.3).
+- **Spectral shape (size distribution)**: the Junge power law of seeds 002/004 with
+  exponent v = 4, ``β ∝ λ^{−(v−2)} K(λ)`` with Bullrich's K(λ) (0.656 at 400 nm to 0.69 at
+  770 nm, via seed 004): an Ångström exponent ≈ 1.9 at 550 nm.
+- **Absorption**: single-scattering albedo ω = 0.9 at every wavelength (Bruneton 2017;
+  within the OPAC continental range 0.89–0.97 of Hess et al. 1998), i.e. 10 % of the haze
+  extinction is absorption — the turbidity counts it (extinction, not scattering).
+- **Phase function**: Henyey–Greenstein with g = 0.8 (Bruneton 2017; more forward than
+  OPAC's continental g ≈ 0.70 at 550 nm — pass ``g=0.7`` for that aerosol).
+- **Vertical profile**: exponential, 1.2 km scale height (Bruneton 2017).
 """
 
 from __future__ import annotations
@@ -35,15 +62,24 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
-from ._validate import as_float_array, check_positive, check_range
+from ._validate import as_float_array, check_option, check_positive, check_range
 from .atmosphere import Atmosphere, Constituent, ExponentialProfile, TentProfile
 from .phase import HenyeyGreensteinPhase, RayleighPhase
-from .scattering import mie_scattering, ozone_absorption, rayleigh_scattering
+from .scattering import (
+    STANDARD_AIR_SCALE_HEIGHT,
+    TURBIDITY_REFERENCE_WAVELENGTH,
+    haze_extinction,
+    ozone_absorption,
+    rayleigh_scattering,
+    rayleigh_scattering_standard_air,
+)
 
 __all__ = [
     "EARTH_PLANET_RADIUS",
     "EARTH_TOP_RADIUS",
+    "EARTH_RAYLEIGH",
     "earth_atmosphere",
+    "bruneton_atmosphere",
     "earth_turbidity_atmosphere",
     "mars_atmosphere",
     "keller_bohn_atmosphere",
@@ -60,6 +96,8 @@ _RGB = (680.0, 550.0, 440.0)
 # Bruneton (2017) Mie: Ångström β = 5.328e-3 at α = 0 gives a wavelength-independent
 # extinction k·β/H = 5.328e-3/1200 m = 4.44e-6 m⁻¹; scattering = 0.9 × extinction.
 _BRUNETON_MIE_EXTINCTION = 5.328e-3 / 1200.0
+#: Haze (aerosol) scale height [m] (Bruneton 2017).
+_HAZE_SCALE_HEIGHT = 1200.0
 
 
 def _wl(wavelengths) -> np.ndarray:
@@ -67,14 +105,42 @@ def _wl(wavelengths) -> np.ndarray:
     return np.atleast_1d(wl).astype(float)
 
 
-def _rayleigh(wl) -> Constituent:
+#: Air models of the Earth presets: ``"standard"`` — real dry air (Bodhaine et al. 1999,
+#: :func:`rayleigh_scattering_standard_air`, 288.15 K, 1013.25 hPa, 360 ppm CO₂) with the
+#: scale height :data:`STANDARD_AIR_SCALE_HEIGHT` ≈ 8.45 km that holds its sea-level
+#: column (τ_R(550 nm) = 0.0970); ``"bruneton"`` — the seed-000 constants of
+#: :func:`rayleigh_scattering` (n = 1.0003, N = 2.545e25 m⁻³, p_n = 0.035; within 1 % of
+#: Bruneton's 5.802, 13.558, 33.1 e-6 m⁻¹ at 680/550/440 nm) with an 8 km scale height
+#: (τ_R(550 nm) = 0.108, 12 % above real air), for comparison with the literature.
+EARTH_RAYLEIGH: dict[str, str] = {
+    "standard": "real dry air, Bodhaine et al. (1999), scale height 8.45 km",
+    "bruneton": "Bruneton (2017) / seed 000 constants, scale height 8 km",
+}
+
+
+def _rayleigh_model(rayleigh: str):
+    """(β_R(λ) callable, scale height [m]) of the named air model."""
+    check_option(rayleigh, "rayleigh", EARTH_RAYLEIGH)
+    if rayleigh == "standard":
+        return rayleigh_scattering_standard_air, STANDARD_AIR_SCALE_HEIGHT
+    return rayleigh_scattering, 8000.0
+
+
+def _rayleigh(wl, rayleigh: str = "standard") -> Constituent:
+    beta, h = _rayleigh_model(rayleigh)
     return Constituent(
         name="rayleigh",
-        scattering=rayleigh_scattering(wl),
+        scattering=beta(wl),
         absorption=0.0,
-        profile=ExponentialProfile(8000.0),
+        profile=ExponentialProfile(h),
         phase=RayleighPhase(),
     )
+
+
+def _column_length(scale_height: float, thickness: float) -> float:
+    """``∫₀^Z e^{−z/H} dz = H (1 − e^{−Z/H})`` [m]: the exact vertical column of an
+    exponential profile in an atmosphere ``Z`` thick (``−expm1`` avoids cancellation)."""
+    return -scale_height * float(np.expm1(-thickness / scale_height))
 
 
 def _ozone(wl) -> Constituent:
@@ -87,13 +153,21 @@ def _ozone(wl) -> Constituent:
     )
 
 
-def earth_atmosphere(wavelengths: Sequence[float] = _RGB, *, ozone: bool = True) -> Atmosphere:
-    """Earth's clear atmosphere with the reference constants of Bruneton (2017).
+def earth_atmosphere(
+    wavelengths: Sequence[float] = _RGB, *, ozone: bool = True, rayleigh: str = "standard"
+) -> Atmosphere:
+    """Earth's clear atmosphere: real air with Bruneton's (2017) aerosol, ozone and radii.
 
-    Rayleigh from :func:`rayleigh_scattering` (seed 000 constants; 5.8e-6, 1.35e-5,
-    3.3e-5 m⁻¹ at 680/550/440 nm — Bruneton uses 5.802, 13.558, 33.1 e-6), scale height
-    8 km; Mie extinction 4.44e-6 m⁻¹ (wavelength independent), albedo 0.9, HG g = 0.8,
-    scale height 1.2 km; optional ozone (300 DU, tent 10–25–40 km).
+    Rayleigh (``rayleigh="standard"``, the default): real dry air after Bodhaine et al.
+    (1999) — 4.26e-5, 1.149e-5, 4.31e-6 m⁻¹ at 400/550/700 nm at sea level
+    (:func:`rayleigh_scattering_standard_air`) — with the scale height
+    :data:`STANDARD_AIR_SCALE_HEIGHT` ≈ 8.45 km, so the vertical Rayleigh optical depth is
+    0.0970 at 550 nm (Bodhaine's Table 3: 0.09707; the 60 km top removes 8e-4 of it).
+    ``rayleigh="bruneton"``: the seed-000 constants (5.8e-6, 1.35e-5, 3.3e-5 m⁻¹ at
+    680/550/440 nm; Bruneton uses 5.802, 13.558, 33.1 e-6) with an 8 km scale height —
+    14–20 % above real air per molecule, 12 % in optical depth (see :data:`EARTH_RAYLEIGH`).
+    Mie: extinction 4.44e-6 m⁻¹ (wavelength independent), albedo 0.9, HG g = 0.8, scale
+    height 1.2 km (Bruneton 2017); optional ozone (300 DU, tent 10–25–40 km).
 
     Parameters
     ----------
@@ -102,11 +176,13 @@ def earth_atmosphere(wavelengths: Sequence[float] = _RGB, *, ozone: bool = True)
     ozone : bool
         Include ozone absorption (needs wavelengths within 360–830 nm for meaningful
         values; the table is held constant outside).
+    rayleigh : {"standard", "bruneton"}
+        Air model (:data:`EARTH_RAYLEIGH`).
     """
     wl = _wl(wavelengths)
     mie_ext = np.full_like(wl, _BRUNETON_MIE_EXTINCTION)
     cons = [
-        _rayleigh(wl),
+        _rayleigh(wl, rayleigh),
         Constituent(
             name="mie",
             scattering=0.9 * mie_ext,
@@ -117,7 +193,18 @@ def earth_atmosphere(wavelengths: Sequence[float] = _RGB, *, ozone: bool = True)
     ]
     if ozone:
         cons.append(_ozone(wl))
-    return Atmosphere(EARTH_PLANET_RADIUS, EARTH_TOP_RADIUS, tuple(wl), tuple(cons), name="earth")
+    name = "earth" if rayleigh == "standard" else "bruneton"
+    return Atmosphere(EARTH_PLANET_RADIUS, EARTH_TOP_RADIUS, tuple(wl), tuple(cons), name=name)
+
+
+def bruneton_atmosphere(wavelengths: Sequence[float] = _RGB, *, ozone: bool = True) -> Atmosphere:
+    """Bruneton's (2017) reference Earth as published: ``earth_atmosphere(rayleigh="bruneton")``.
+
+    Seed-000 Rayleigh constants with an 8 km scale height (τ_R(550 nm) = 0.108), Mie and
+    ozone as in :func:`earth_atmosphere`.  For comparisons with the literature that uses
+    these constants (Bruneton & Neyret 2008, Bruneton 2017 and renderers built on them).
+    """
+    return earth_atmosphere(wavelengths, ozone=ozone, rayleigh="bruneton")
 
 
 def earth_turbidity_atmosphere(
@@ -127,13 +214,21 @@ def earth_turbidity_atmosphere(
     ozone: bool = True,
     single_scattering_albedo: float = 0.9,
     g: float = 0.8,
+    rayleigh: str = "standard",
 ) -> Atmosphere:
-    """Earth atmosphere whose haze is fixed by the turbidity ``T`` (Preetham et al. 1999).
+    """Earth atmosphere whose haze extinction is fixed by the turbidity ``T`` (Preetham 1999).
 
-    Haze sea-level scattering from :func:`atmoscatter.mie_scattering` (Junge shape, vertical
-    haze optical depth ``(T − 1)`` × molecular optical depth at 550 nm; errata 004.3),
-    scale height 1.2 km, albedo ``single_scattering_albedo``, HG asymmetry ``g``.  At
-    ``T = 1`` the haze constituent is omitted entirely (no haze work is done).
+    ``T = (τ_m + τ_h)/τ_m`` at 550 nm (:data:`TURBIDITY_REFERENCE_WAVELENGTH`; errata
+    004.3): τ_m is the vertical optical depth of the preset's Rayleigh constituent, τ_h the
+    vertical *extinction* (scattering + absorption) optical depth of its haze, both
+    integrated over the exact profiles from the ground to the 60 km top; ozone absorption
+    is not part of either.  So ``T·τ_m = τ_m + τ_h`` holds exactly at 550 nm for any albedo.
+    The aerosol model (see the module notes): Junge spectral shape (v = 4, Bullrich's K(λ),
+    :func:`atmoscatter.haze_extinction`), single-scattering albedo
+    ``single_scattering_albedo`` (0.9, Bruneton 2017), HG asymmetry ``g`` (0.8, Bruneton
+    2017), exponential profile with a 1.2 km scale height.  Air: :data:`EARTH_RAYLEIGH`
+    (``"standard"``: real air, τ_m = 0.0970).  At ``T = 1`` the haze constituent is omitted
+    entirely (no haze work is done).
 
     Parameters
     ----------
@@ -147,25 +242,45 @@ def earth_turbidity_atmosphere(
         Haze albedo [-], in (0, 1].
     g : float
         Haze HG asymmetry [-], in (−1, 1).
+    rayleigh : {"standard", "bruneton"}
+        Air model; T refers to that air's optical depth.
+
+    Notes
+    -----
+    Earlier versions set the haze *scattering* optical depth to ``(T − 1) τ_m`` and added
+    absorption on top, so the extinction turbidity was 2.11 / 3.22 / 6.56 for nominal
+    2 / 3 / 6, and the air was the seed-000 one.
     """
     T = float(check_range(turbidity, "turbidity", 1.0, np.inf))
     w = float(check_range(single_scattering_albedo, "single_scattering_albedo", 0.0, 1.0, low_inclusive=False))
     wl = _wl(wavelengths)
-    cons = [_rayleigh(wl)]
+    ray = _rayleigh(wl, rayleigh)
+    cons = [ray]
     if T > 1.0:
-        sca = mie_scattering(wl, turbidity=T)
+        beta_r, h_r = _rayleigh_model(rayleigh)
+        thickness = EARTH_TOP_RADIUS - EARTH_PLANET_RADIUS
+        ext = haze_extinction(
+            wl,
+            turbidity=T,
+            reference_wavelength=TURBIDITY_REFERENCE_WAVELENGTH,
+            molecular_scattering=float(beta_r(TURBIDITY_REFERENCE_WAVELENGTH)),
+            molecular_scale_height=_column_length(h_r, thickness),
+            haze_scale_height=_column_length(_HAZE_SCALE_HEIGHT, thickness),
+        )
         cons.append(
             Constituent(
                 name="mie",
-                scattering=sca,
-                absorption=sca * (1.0 - w) / w,
-                profile=ExponentialProfile(1200.0),
+                scattering=ext * w,
+                absorption=ext * (1.0 - w),
+                profile=ExponentialProfile(_HAZE_SCALE_HEIGHT),
                 phase=HenyeyGreensteinPhase(g),
             )
         )
     if ozone:
         cons.append(_ozone(wl))
-    return Atmosphere(EARTH_PLANET_RADIUS, EARTH_TOP_RADIUS, tuple(wl), tuple(cons), name=f"earth-T{T:g}")
+    suffix = "" if rayleigh == "standard" else f"-{rayleigh}"
+    return Atmosphere(EARTH_PLANET_RADIUS, EARTH_TOP_RADIUS, tuple(wl), tuple(cons),
+                      name=f"earth-T{T:g}{suffix}")
 
 
 # Mars: CO₂ at the mean surface: N = p/(k T) = 636 Pa / (1.380649e-23 J/K · 210 K).
@@ -254,6 +369,7 @@ def keller_bohn_atmosphere(
 #: Registry of preset names → constructors (``atmosphere_preset(name, **kwargs)``).
 PRESETS: dict[str, Callable[..., Atmosphere]] = {
     "earth": earth_atmosphere,
+    "bruneton": bruneton_atmosphere,
     "earth_turbidity": earth_turbidity_atmosphere,
     "mars": mars_atmosphere,
     "keller_bohn": keller_bohn_atmosphere,

@@ -17,8 +17,16 @@ What it does
    Writes the tables, error-against-sun-elevation plots and error maps.
 2. **Sun position and sunrise/sunset** against pvlib's NREL SPA, if ``atmoscatter.sun`` and
    pvlib are available.
-3. **Convergence and speed**: links the numerical issue's convergence page when it exists
+3. **Brightness at equal turbidity**: zenith luminance and diffuse horizontal illuminance of
+   each analytic model and of single scattering against the physical multiple-scattering
+   sky for turbidity 2, 3, 6 and a few sun elevations (turbidity by extinction at 550 nm,
+   ``T = (τ_m + τ_h)/τ_m``; :data:`BRIGHTNESS_ELEVATIONS`).
+4. **Convergence and speed**: links the numerical issue's convergence page when it exists
    and reports the render time per sky direction measured here.
+
+``--quick`` renders small maps (16 × 8, 3 instants) and uses a coarse sky quadrature for
+the brightness table: for checking that the script runs (seconds to a minute), not for
+publishing.
 
 Everything missing in this checkout is stated in the generated page, never filled in.
 """
@@ -48,6 +56,10 @@ CLEAR_SKY_MODELS = ("preetham", "hoffman_preetham", "cie_clear", "single_scatter
                     "multiple_scattering")
 NOT_CLEAR_SKY = ("cie_overcast",)
 SUN_EXCLUSION_DEG = 1.0
+#: Sun elevations [°] of the brightness table (low, middle, high sun).
+BRIGHTNESS_ELEVATIONS = (10.0, 30.0, 60.0)
+#: Models compared in the brightness table (the reference is multiple_scattering).
+BRIGHTNESS_MODELS = ("preetham", "hoffman_preetham", "cie_clear", "single_scattering")
 FAIL_P95 = 0.25  # "fails": more than 5 % of the sky off by more than 25 %
 
 
@@ -380,6 +392,81 @@ def _plot(rows, tested, out_dir, ref_model):
     return True
 
 
+def _brightness(model, T, el, n_theta):
+    """(zenith luminance [cd m⁻²], diffuse horizontal illuminance [lx]) of one sky.
+
+    One ``atmoscatter.render`` call with caller directions (sun disc not drawn): the zenith
+    and the sky-dome rule of :func:`atmoscatter.sphere_quadrature` (Gauss–Legendre in cos θ,
+    ``n_theta`` × 2 ``n_theta`` directions), summed by :func:`atmoscatter.diffuse_irradiance`.
+    """
+    extra = {"orders": REFERENCE_ORDERS} if model == "multiple_scattering" else {}
+    scene = ac.Scene(name=model, model=model, turbidity=T, sun_elevation_deg=el,
+                     sun_azimuth_deg=180.0, output="xyz", sun_disc=False, **extra)
+    dirs, w = ac.sphere_quadrature(n_theta, domain="upper")
+    d = np.concatenate([[[0.0, 0.0, 1.0]], dirs])
+    y = np.asarray(ac.render(scene, directions=d).xyz, float)[..., 1]
+    return float(y[0]), float(ac.diffuse_irradiance(y[1:], directions=dirs, weights=w))
+
+
+def brightness_section(out_dir, n_theta):
+    """Zenith luminance and diffuse horizontal illuminance at equal turbidity."""
+    lines = ["## Brightness at equal turbidity", ""]
+    models = _models()
+    if "multiple_scattering" not in models:
+        return lines + ["**Not generated**: `multiple_scattering` (the physical reference) is "
+                        "not available in this build.", ""], []
+    tested = [m for m in BRIGHTNESS_MODELS if m in models]
+    rows = []
+    for T in TURBIDITIES:
+        for el in BRIGHTNESS_ELEVATIONS:
+            ref = _brightness("multiple_scattering", T, el, n_theta)
+            row = {"turbidity": T, "sun_elevation_deg": el, "Lz_ref": ref[0], "Ed_ref": ref[1]}
+            for m in tested:
+                try:
+                    lz, ed = _brightness(m, T, el, n_theta)
+                except Exception as exc:  # a model may refuse a case; say so in the table
+                    row[m] = " ".join(str(exc).split())
+                    continue
+                row[m] = (lz / ref[0], ed / ref[1])
+            rows.append(row)
+    os.makedirs(out_dir, exist_ok=True)
+    with open(os.path.join(out_dir, "brightness.csv"), "w", newline="", encoding="utf-8") as fh:
+        w = csv.writer(fh)
+        w.writerow(["turbidity", "sun_elevation_deg", "model", "zenith_luminance_ratio",
+                    "diffuse_illuminance_ratio", "reference_zenith_luminance_cd_m2",
+                    "reference_diffuse_illuminance_lx"])
+        for r in rows:
+            for m in tested:
+                v = r.get(m)
+                a, b = (f"{v[0]:.6g}", f"{v[1]:.6g}") if isinstance(v, tuple) else (v, v)
+                w.writerow([f"{r['turbidity']:g}", f"{r['sun_elevation_deg']:g}", m, a, b,
+                            f"{r['Lz_ref']:.6g}", f"{r['Ed_ref']:.6g}"])
+    lines += ["Turbidity means one thing in every model: `T = (τ_m + τ_h)/τ_m`, the vertical "
+              "extinction optical depth of molecules plus haze over that of the molecules "
+              "(Rayleigh only) at 550 nm (Preetham et al. 1999; errata 004.3).  The physical "
+              "skies use `earth_turbidity_atmosphere(T)` (real air, Bodhaine et al. 1999; haze "
+              "ω = 0.9, HG g = 0.8), `hoffman_preetham` the same haze with its 8.4/1.25 km "
+              "optical lengths, `preetham` and `cie_clear` take T as the parameter of "
+              "Preetham's fit.  Reference: `multiple_scattering` with "
+              f"{REFERENCE_ORDERS} orders, no ground reflection, sun due south at the given "
+              "elevation, sun disc not drawn.  Zenith luminance L_z and diffuse horizontal "
+              "illuminance E_d (sky dome by `atmoscatter.diffuse_irradiance` on the "
+              f"`sphere_quadrature` rule with {n_theta} × {2 * n_theta} directions) as **model / reference**; the "
+              "reference values in the first columns.  Raw numbers: "
+              "[validation/brightness.csv](validation/brightness.csv).", "",
+              "| T | sun [°] | ref. L_z [kcd m⁻²] | ref. E_d [klx] | "
+              + " | ".join(f"`{m}` L_z | `{m}` E_d" for m in tested) + " |",
+              "|---|---|---|---|" + "---|---|" * len(tested)]
+    for r in rows:
+        cells = []
+        for m in tested:
+            v = r.get(m)
+            cells += [f"{v[0]:.3f}", f"{v[1]:.3f}"] if isinstance(v, tuple) else [f"failed: {v}", ""]
+        lines.append(f"| {r['turbidity']:g} | {r['sun_elevation_deg']:g} | {r['Lz_ref'] / 1e3:.3g} | "
+                     f"{r['Ed_ref'] / 1e3:.3g} | " + " | ".join(cells) + " |")
+    return lines + [""], rows
+
+
 def sun_section():
     lines = ["## Sun position and sunrise/sunset", ""]
     if not hasattr(ac, "sun_position"):
@@ -610,7 +697,13 @@ def main(argv=None) -> int:
     ap.add_argument("--times", type=int, default=9, help="instants from sunrise to sunset")
     ap.add_argument("--benchmarks", action="store_true",
                     help="also run benchmarks/bench_*.py (minutes) and tabulate the results")
+    ap.add_argument("--quick", action="store_true",
+                    help="small maps (16x8, 3 instants) and a coarse brightness quadrature: "
+                         "checks that the script runs, not for publishing")
     args = ap.parse_args(argv)
+    if args.quick:
+        args.width, args.times = 16, 3
+    n_theta = 16 if args.quick else 32
     if args.width < 4 or args.width % 2 or args.times < 2:
         ap.error("--width must be an even number >= 4 and --times >= 2")
     out_dir = os.path.join(args.out, "validation")
@@ -623,7 +716,8 @@ def main(argv=None) -> int:
              f"(atmoscatter {ac.__version__}, {_dt.date.today().isoformat()}); re-run it to "
              "regenerate.  Available sky models: "
              f"{', '.join(f'`{m}`' for m in _models()) or 'none'}.", ""]
-    lines += (model_lines + reference_orders_section(out_dir, args.width) + sun_section()
+    bright_lines, _ = brightness_section(out_dir, n_theta)
+    lines += (model_lines + bright_lines + reference_orders_section(out_dir, args.width) + sun_section()
               + convergence_section(args.out) + speed_section(timings, out_dir))
     lines += ["## Gallery", "", "Images rendered by the package: see [gallery](gallery.md).", "",
               f"*Report generated in {time.perf_counter() - t0:.0f} s.*"]

@@ -506,3 +506,21 @@ def test_property_aerial_perspective_is_a_convex_mix_of_L0_and_airlight(beta, s,
         np.testing.assert_array_equal(got, L0)  # F = 1, L_in = 0 exactly: exact by construction
     if beta > 0 and np.isinf(s):
         np.testing.assert_allclose(got, A, rtol=1e-14)  # F = 0, β_sc/β_ex = 1 exactly
+
+@pytest.mark.parametrize("T", [1.0, 2.0, 3.0, 6.0])
+def test_turbidity_haze_is_the_extinction_ratio(T):
+    # T = (τ_m + τ_h)/τ_m at 550 nm (Preetham 1999; errata 004.3) with the model's zenith
+    # optical lengths 8400 m / 1250 m (seed 000): evaluate the haze at 550 nm itself
+    # (wavelength triple containing 550) and check against the air of the same model.
+    h = ac.turbidity_haze(T, (650.0, 550.0, 475.0))
+    tau_m = float(ac.hoffman_preetham_air_scattering(550.0, air="standard")) * 8400.0
+    tau_h = h.extinction[1] * 1250.0
+    assert (tau_m + tau_h) / tau_m == pytest.approx(T, rel=1e-12)
+    np.testing.assert_allclose(np.asarray(h.scattering), 0.9 * h.extinction, rtol=1e-12)
+    assert h.g == 0.8
+    # real air: Bodhaine et al. (1999) sea-level coefficient 1.1488e-5 m⁻¹ at 550 nm
+    assert tau_m == pytest.approx(1.1488e-5 * 8400.0, rel=1e-3)
+    with pytest.raises(ValueError, match="wavelengths"):
+        ac.turbidity_haze(T, (550.0, 650.0))
+    with pytest.raises(ValueError, match="air"):
+        ac.turbidity_haze(T, air="vacuum")

@@ -559,8 +559,11 @@ class TestHoffmanPreethamAdapter:
         seen = []
         real = ac.hoffman_preetham_sky
 
+        airs = []
+
         def spy(d, sun, **kw):
             seen.append(kw["haze"])
+            airs.append(kw["air_scattering"])
             return real(d, sun, **kw)
 
         monkeypatch.setattr(ac, "hoffman_preetham_sky", spy)
@@ -568,10 +571,24 @@ class TestHoffmanPreethamAdapter:
                         sun_elevation_deg=30.0))
         assert seen and all(h is None for h in seen)
         seen.clear()
+        airs.clear()
         ac.render(Scene(model="hoffman_preetham", turbidity=4.0, width=16, height=8,
                         sun_elevation_deg=30.0))
-        expected = ac.mie_scattering(np.array(ac.HOFFMAN_PREETHAM_WAVELENGTHS), turbidity=4.0)
-        np.testing.assert_allclose(seen[0].scattering, expected, rtol=1e-12)
+        # real air (Bodhaine 1999) and T = (τ_m + τ_h)/τ_m by extinction at 550 nm with the
+        # model's zenith optical lengths 8400 m (air) / 1250 m (haze) (seed 000; errata
+        # 004.3): β_ext,h(λ) = (T − 1) β_air(550) 8400/1250 · λ⁻² K(λ) / (550⁻² K(550)),
+        # K linear 0.656 (400 nm) → 0.69 (770 nm) (seed 004), ω = 0.9, g = 0.8
+        wl = np.array(ac.HOFFMAN_PREETHAM_WAVELENGTHS)
+        np.testing.assert_allclose(airs[0], ac.rayleigh_scattering_standard_air(wl), rtol=1e-14)
+
+        def k(x):
+            return 0.656 + (x - 400.0) * 0.034 / 370.0
+
+        ext = 3.0 * float(ac.rayleigh_scattering_standard_air(550.0)) * 8400.0 / 1250.0 \
+            * (550.0 / wl) ** 2 * k(wl) / k(550.0)
+        np.testing.assert_allclose(seen[0].scattering, 0.9 * ext, rtol=1e-12)
+        np.testing.assert_allclose(seen[0].absorption, 0.1 * ext, rtol=1e-12)
+        assert seen[0].g == 0.8
 
     def test_absolute_units_against_a_fine_spectrum(self):
         # independent: evaluate the model's own per-irradiance radiance on a 1 nm grid (three
@@ -585,7 +602,7 @@ class TestHoffmanPreethamAdapter:
         wl = np.arange(380.0, 782.0)  # 402 = 134 triples
         f = np.concatenate([
             ac.hoffman_preetham_sky(d, sun, haze=None, sun_irradiance=np.ones(3),
-                                    air_scattering=ac.rayleigh_scattering(w))
+                                    air_scattering=ac.rayleigh_scattering_standard_air(w))
             for w in wl.reshape(-1, 3)], axis=-1)
         import colour
 

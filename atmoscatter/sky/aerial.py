@@ -8,9 +8,12 @@ path_integral
     ``∫₀^s e^{−β t} dt = (1 − e^{−β s})/β`` with its limits (β → 0: ``s``; s → ∞: ``1/β``).
 HazePreset, HAZE_PRESETS
     Haze/fog parameters of seed 000 Table 1 (errata 000.3), with the g each one assumes.
+turbidity_haze
+    A :class:`HazePreset` whose zenith extinction gives the turbidity ``T = (τ_m + τ_h)/τ_m``
+    at 550 nm with this model's optical lengths (8.4 km air, 1.25 km haze).
 HOFFMAN_PREETHAM_WAVELENGTHS, hoffman_preetham_air_scattering
     The R, G, B sample wavelengths of seed 000 (650, 570, 475 nm) and air's Rayleigh
-    coefficients there (6.95e-6, 1.18e-5, 2.44e-5 m⁻¹, errata 000.4).
+    coefficients there (seed 000: 6.95e-6, 1.18e-5, 2.44e-5 m⁻¹, errata 000.4; or real air).
 hoffman_preetham_extinction
     ``F_ex(s_air, s_haze) = e^{−(β_exAir s_air + β_exHaze s_haze)}`` (Eq. 3 and its two-length form).
 hoffman_preetham_inscattering
@@ -63,7 +66,12 @@ from .._validate import as_float_array, check_option, check_positive, check_rang
 from ..colour import XYZ_to_linear_rgb, spectral_to_XYZ
 from ..optical_length import relative_optical_length
 from ..phase import henyey_greenstein_phase, rayleigh_phase
-from ..scattering import rayleigh_scattering
+from ..scattering import (
+    TURBIDITY_REFERENCE_WAVELENGTH,
+    haze_extinction,
+    rayleigh_scattering,
+    rayleigh_scattering_standard_air,
+)
 from ..solar import extraterrestrial_irradiance
 from .preetham import _sun, _views
 
@@ -76,6 +84,7 @@ __all__ = [
     "HAZE_ZENITH_OPTICAL_LENGTH",
     "HazePreset",
     "HAZE_PRESETS",
+    "turbidity_haze",
     "one_minus_exp_ratio",
     "path_integral",
     "hoffman_preetham_air_scattering",
@@ -221,14 +230,82 @@ def _path_integral(beta, s):
 # ----------------------------------------------------------------------------------------------
 # coefficients and sunlight
 # ----------------------------------------------------------------------------------------------
-def hoffman_preetham_air_scattering(wavelengths=HOFFMAN_PREETHAM_WAVELENGTHS) -> np.ndarray:
-    """Air's Rayleigh scattering coefficient with seed 000's constants.
+#: Air models of :func:`hoffman_preetham_air_scattering`.
+_AIR_MODELS = {"seed000": rayleigh_scattering, "standard": rayleigh_scattering_standard_air}
 
-    ``n = 1.0003``, ``N = 2.545e25 m⁻³``, ``p_n = 0.035`` (via
-    :func:`atmoscatter.rayleigh_scattering`); at 650, 570, 475 nm:
-    6.95e-6, 1.18e-5, 2.44e-5 m⁻¹ (errata 000.4). [m⁻¹]
+
+def hoffman_preetham_air_scattering(wavelengths=HOFFMAN_PREETHAM_WAVELENGTHS, *, air="seed000") -> np.ndarray:
+    """Air's Rayleigh scattering coefficient for the Hoffman–Preetham model. [m⁻¹]
+
+    ``air="seed000"`` (default, the seed's model): ``n = 1.0003``, ``N = 2.545e25 m⁻³``,
+    ``p_n = 0.035`` (via :func:`atmoscatter.rayleigh_scattering`); at 650, 570, 475 nm:
+    6.95e-6, 1.18e-5, 2.44e-5 m⁻¹ (errata 000.4).  ``air="standard"``: real dry air,
+    :func:`atmoscatter.rayleigh_scattering_standard_air` (Bodhaine et al. 1999), 15 % lower
+    at 550 nm; with the 8.4 km optical length its zenith optical depth is 0.0965 at 550 nm.
     """
-    return np.asarray(rayleigh_scattering(np.asarray(wavelengths, dtype=np.float64)))
+    check_option(air, "air", _AIR_MODELS)
+    return np.asarray(_AIR_MODELS[air](np.asarray(wavelengths, dtype=np.float64)), dtype=np.float64)
+
+
+def turbidity_haze(
+    turbidity,
+    wavelengths=HOFFMAN_PREETHAM_WAVELENGTHS,
+    *,
+    air="standard",
+    single_scattering_albedo=0.9,
+    g=0.8,
+    air_zenith_length=AIR_ZENITH_OPTICAL_LENGTH,
+    haze_zenith_length=HAZE_ZENITH_OPTICAL_LENGTH,
+) -> HazePreset:
+    """Haze of turbidity ``T`` for the Hoffman–Preetham model (and :func:`aerial_perspective`).
+
+    The haze *extinction* at 550 nm satisfies ``β_exHaze s_haze = (T − 1) β_scAir s_air``
+    with the model's zenith optical lengths (8.4 km air, 1.25 km haze; seed 000), i.e.
+    ``T = (τ_m + τ_h)/τ_m`` (Preetham 1999, errata 004.3) as in
+    :func:`atmoscatter.earth_turbidity_atmosphere`; Junge spectral shape
+    (:func:`atmoscatter.haze_extinction`), ``ω = single_scattering_albedo`` (0.9) and HG
+    ``g`` (0.8), the aerosol of the physical presets (Bruneton 2017).  For comparison, seed
+    000's Table 1 rows correspond (green, 570 nm, seed air) to T ≈ 1.4 (light haze),
+    2.3 (heavy haze), 14 (light fog) and 130 (heavy fog).
+
+    Parameters
+    ----------
+    turbidity : float
+        Turbidity [-], ≥ 1 (1: no haze; scattering and absorption 0).
+    wavelengths : sequence of 3 float
+        R, G, B wavelengths [nm] (default 650, 570, 475).
+    air : {"standard", "seed000"}
+        Air whose optical depth defines T (:func:`hoffman_preetham_air_scattering`).
+    single_scattering_albedo : float
+        Haze albedo ω [-], in (0, 1].
+    g : float
+        HG asymmetry [-], in (−1, 1).
+    air_zenith_length, haze_zenith_length : float
+        Zenith optical lengths [m] (8400, 1250).
+
+    Returns
+    -------
+    HazePreset
+        Scattering ``ω β_ext`` and absorption ``(1 − ω) β_ext`` at the three wavelengths.
+    """
+    T = float(check_range(turbidity, "turbidity", 1.0, np.inf))
+    w = float(check_range(single_scattering_albedo, "single_scattering_albedo", 0.0, 1.0, low_inclusive=False))
+    wl = np.asarray(as_float_array(wavelengths, "wavelengths"), dtype=np.float64)
+    if wl.shape != (3,):
+        raise ValueError(f"wavelengths must have 3 values (R, G, B), got shape {wl.shape}")
+    b_ref = float(hoffman_preetham_air_scattering(TURBIDITY_REFERENCE_WAVELENGTH, air=air))
+    ext = np.asarray(haze_extinction(
+        wl, turbidity=T, molecular_scattering=b_ref,
+        molecular_scale_height=float(check_positive(air_zenith_length, "air_zenith_length", unit="m")),
+        haze_scale_height=float(check_positive(haze_zenith_length, "haze_zenith_length", unit="m")),
+    ), dtype=np.float64)
+    return HazePreset(
+        f"turbidity {T:g}", tuple(float(x) for x in ext * w), float(g),
+        absorption=tuple(float(x) for x in ext * (1.0 - w)),
+        note=(f"T = (tau_m + tau_h)/tau_m = {T:g} at 550 nm by extinction ({air} air, "
+              f"{air_zenith_length:g} m / {haze_zenith_length:g} m optical lengths); Junge v = 4, "
+              f"omega = {w:g}, HG g = {g:g}"),
+    )
 
 
 @lru_cache(maxsize=16)
