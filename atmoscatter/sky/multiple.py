@@ -19,20 +19,48 @@ the direct sun).  The radiance field ``I^i`` of each order is kept on a grid ove
 altitude × solar zenith angle × view zenith (double Gauss) × relative azimuth (0–π,
 the field is symmetric about the solar vertical) — the horizontally uniform atmosphere
 and parallel sun make these four variables sufficient (Bruneton & Neyret 2008 use the
-same reduction).  ``S^i`` is obtained with a discrete phase matrix whose rows are
-normalised (energy is conserved exactly on the grid); it is interpolated multilinearly
-along every ray, weighted by the exact density, and integrated with the same graded
-Gauss–Legendre rule as single scattering.
+same reduction).  The grid is the design's core; each axis is chosen for where the field
+changes fastest:
+
+* **solar zenith** — nodes dense from about 75° to 110° (the sun near and below the
+  horizon: :meth:`MultipleScatteringGrid.sun_zenith_nodes`), and the source interpolated
+  by a cubic in ``log S`` through the four nearest nodes (:mod:`._ms_gather`).  Below the
+  horizon the field falls by about e per degree; linear interpolation of the values on a
+  9° grid made civil twilight 13× and nautical twilight 90× too bright (issue 10);
+* **view zenith** — the source ``S^i = Σ W L^i`` is evaluated at the quadrature nodes
+  *and* at the zenith and nadir, so interpolation spans [−1, 1]: before, the zenith cap
+  was clamped to the last node (11.4° from the zenith) and read the field toward the sun;
+* **altitude** — nodes equidistributed in a mix of height and vertical optical depth
+  (:func:`_altitude_nodes`), so an optically thick layer gets nodes below its top;
+* the **order-1 field** at the nodes uses the sun's transmittance from a table over
+  (altitude, solar zenith) that follows the terminator exactly (:class:`_SunTransmittance`);
+  the caller's own order 1 is :func:`single_scattering`, exact.
+
+``S^i`` is obtained with a discrete phase matrix whose rows are normalised (energy is
+conserved exactly on the grid) and gathered along every ray by a compiled kernel, weighted
+by the exact density and transmittance on graded Gauss–Legendre panels.  With
+``orders=None`` successive orders are summed until the geometric tail estimate is small
+and the tail itself is added (:meth:`_FieldState.converged_sum`).  Large batches (≥
+``TABLE_THRESHOLD`` directions, observer inside the atmosphere) tabulate the smooth
+multiple-scattering part over the observer's sky (257 × 33 nodes) and interpolate it; a
+test proves the table gives the small-batch answer within 0.5 % of the multiple-scattering
+part in every regime where it is used.
+
+The field depends only on the atmosphere, the albedo, the grid and the order setting —
+not on the sun or the observer — so one field serves every scene of an atmosphere.  It is
+kept per process and in the persistent cache (:mod:`atmoscatter.cache`; a new process or a
+Dask worker reads it instead of recomputing; checksummed, written atomically).
 
 The returned radiance is the light scattered by the atmosphere into the view ray (path
 radiance).  For rays that end on the ground the ground's own reflected radiance is *not*
 included (so ``orders=1`` equals single scattering for every direction); the ground
 albedo acts through light reflected by the ground and scattered again.
 
-Accuracy: orders ≥ 2 are computed on a coarse grid; against the Monte Carlo tracer of
-``tests/test_montecarlo.py`` the total radiance agrees within about 1 % (at most ~3 % of
-the multiple-scattering part) in a thin (τ ≈ 0.3) and a thick (τ ≈ 3) atmosphere, with
-and without a bright ground (``docs/numerical_scattering.md``).
+Accuracy (measured, never assumed): against the published DISORT test problems
+(``tests/test_rt_benchmarks.py``), the spherical sunset/twilight Monte Carlo tracer
+(``tests/test_montecarlo.py``) and a refined grid (``docs/convergence.md``, which also
+gives error against run time for each resolution knob).  ``scripts/ms_reference_check.py``
+prints the comparison tables.
 
 References
 ----------
@@ -759,20 +787,24 @@ def multiple_scattering(
         Observer altitude [m] (any: ground, inside, top, space).
     orders : int or None
         Number of scattering orders, ≥ 1 (1 = :func:`single_scattering`, default method).
-        ``None`` (default): as many as needed for the omitted orders to stay below
-        ``order_tolerance`` of the multiple-scattering source (estimated from the geometric
-        decay of successive orders; at most 200 orders, with a ``RuntimeWarning`` if that
-        is not enough).  Fixed small counts are biased low: against 40 orders, 6 orders are
-        1.7 % (turbidity 2) and 18 % (turbidity 6) low and 10 orders 0.05 % / 2.7 % low
-        (max over the sky, sun 30° high); the automatic choice is within 2e-4.
+        ``None`` (default): all orders, summed until the estimated remaining tail is below
+        ``30 · order_tolerance`` of the multiple-scattering source, and the tail then added
+        as a geometric series (its own error, estimated from the change of the decay ratio
+        between the last two orders, must be below ``order_tolerance``); at most 200
+        orders, with a ``RuntimeWarning`` if that is not enough.  An explicit count sums
+        exactly that many orders (fixed small counts are biased low in hazy skies).
     order_tolerance : float
-        Target relative size of the omitted orders when ``orders=None`` [-], > 0.
+        Target relative error of the summed orders when ``orders=None`` [-], in (0, 1);
+        default 1e-3 (measured 2.4e-4 of the source against 50 orders at turbidity 2.5 —
+        far below the grid's own error, see ``docs/convergence.md``).
     ground_albedo : float
         Lambertian ground albedo [-], in [0, 1].
     grid : MultipleScatteringGrid, optional
         Resolution of the precomputed field (default :data:`MULTIPLE_SCATTERING_GRID`).
         The field depends only on the atmosphere, albedo, orders and grid, and is cached
-        (the first call costs a few seconds; later calls only the view-path gather).
+        in the process and on disk (the first call for an atmosphere costs seconds —
+        ``benchmarks/bench_multiple.py`` — later calls and later processes only the
+        view-path gather).
     batch_size : int
         Directions per batch of the gather (bounds memory).
 
@@ -785,8 +817,10 @@ def multiple_scattering(
     Notes
     -----
     Order 1 is computed exactly (:func:`single_scattering`); orders ≥ 2 on the grid (see
-    module docstring).  Measured against a Monte Carlo path tracer, see
-    ``docs/numerical_scattering.md``.
+    the module docstring).  Valid for any sun elevation (twilight included: the field is
+    tabulated to 30° below the horizon), any observer altitude and horizontally uniform
+    atmospheres.  Accuracy against DISORT, Monte Carlo and a refined grid:
+    ``docs/numerical_scattering.md`` and ``docs/convergence.md``.
     """
     tol = float(check_range(order_tolerance, "order_tolerance", 0.0, 1.0, low_inclusive=False))
     n_orders = None if orders is None else int(check_range(orders, "orders", 1, 200))

@@ -1,0 +1,100 @@
+"""Cost of multiple scattering: the field's first call, the persistent cache, a warm render.
+
+Run:   python -m pytest benchmarks/bench_multiple.py --benchmark-only
+Quick: python -m pytest benchmarks/bench_multiple.py --benchmark-disable   (CI: runs once)
+
+Targets (issue 10), on the 2-core machine:
+
+* first call for an Earth atmosphere at 3 wavelengths (the field: successive orders on
+  the default grid, in-process and disk caches empty): ≤ 10 s;
+* a later process (disk cache filled, in-process caches empty) rendering a 1024×512
+  ``model="multiple_scattering"`` sky: ≤ 3 s in the renderer (the CLI adds its start-up);
+* the ``atmoscatter render --set model=multiple_scattering`` command end to end, the second
+  time (``test_cli_second_render``).
+
+``ATMOSCATTER_BENCH_FULL=1`` runs the renders at 1024×512 (default 256×128 so that the quick
+CI pass stays short) and the CLI command.
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+
+import atmoscatter as ac
+from atmoscatter.sky import multiple as M
+
+FULL = os.environ.get("ATMOSCATTER_BENCH_FULL") == "1"
+SUN = np.array([0.0, np.cos(np.radians(30.0)), np.sin(np.radians(30.0))])
+VIEWS = np.array([[0.0, 0.0, 1.0], [0.0, 0.7, 0.7], [0.7, 0.0, 0.1]])
+
+
+def _clear_process_caches():
+    M._CACHE.clear()
+    M._RESULTS.clear()
+
+
+def test_first_call_earth_rgb(benchmark, tmp_path, monkeypatch):
+    """Field of ``earth_turbidity_atmosphere(2.5)`` at 3 wavelengths from nothing."""
+    monkeypatch.setenv("ATMOSCATTER_CACHE_DIR", "off")
+    atm = ac.earth_turbidity_atmosphere(2.5)
+
+    def run():
+        _clear_process_caches()
+        return ac.multiple_scattering(atm, VIEWS, SUN)
+
+    out = benchmark.pedantic(run, rounds=1, iterations=1)
+    assert np.all(np.isfinite(out)) and np.all(out > 0)
+
+
+def test_later_process_reads_the_disk_cache(benchmark, tmp_path, monkeypatch):
+    """What a second process pays: read the stored field, then the view-path gather."""
+    monkeypatch.setenv("ATMOSCATTER_CACHE_DIR", str(tmp_path))
+    atm = ac.earth_turbidity_atmosphere(2.5)
+    _clear_process_caches()
+    ref = ac.multiple_scattering(atm, VIEWS, SUN)  # fills the disk cache
+
+    def run():
+        _clear_process_caches()
+        return ac.multiple_scattering(atm, VIEWS, SUN)
+
+    out = benchmark.pedantic(run, rounds=3, iterations=1)
+    np.testing.assert_allclose(out, ref, rtol=1e-12)
+
+
+def test_warm_render(benchmark, tmp_path, monkeypatch):
+    """A ``model="multiple_scattering"`` lat-long render in a process that finds the field
+    on disk (1024×512 with ``ATMOSCATTER_BENCH_FULL=1``)."""
+    monkeypatch.setenv("ATMOSCATTER_CACHE_DIR", str(tmp_path))
+    w, h = (1024, 512) if FULL else (256, 128)
+    scene = ac.Scene(model="multiple_scattering", width=w, height=h)
+    ac.render(scene)  # fills the disk cache
+
+    def run():
+        _clear_process_caches()
+        return ac.render(scene)
+
+    sky = benchmark.pedantic(run, rounds=2, iterations=1)
+    assert sky is not None
+
+
+@pytest.mark.skipif(not FULL, reason="set ATMOSCATTER_BENCH_FULL=1 for the CLI command (two runs)")
+def test_cli_second_render(benchmark, tmp_path):
+    """``atmoscatter render -o sky.exr --set model=multiple_scattering``, the second time
+    (a fresh process each time; the first run fills the disk cache)."""
+    env = dict(os.environ, ATMOSCATTER_CACHE_DIR=str(tmp_path / "cache"))
+    cmd = [sys.executable, "-m", "atmoscatter", "render", "-o", str(tmp_path / "sky.exr"),
+           "--set", "model=multiple_scattering"]
+    subprocess.run(cmd, check=True, env=env, capture_output=True)
+
+    def run():
+        t = time.perf_counter()
+        subprocess.run(cmd, check=True, env=env, capture_output=True)
+        return time.perf_counter() - t
+
+    benchmark.pedantic(run, rounds=2, iterations=1)
