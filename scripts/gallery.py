@@ -24,8 +24,6 @@ import atmoscatter as ac  # noqa: E402
 SITE = {"latitude": 39.742, "longitude": -105.179}  # NREL, Golden, Colorado
 DAY = "2024-06-21"
 MODEL_PREFERENCE = ("multiple_scattering", "single_scattering", "preetham")
-#: Scattering orders for multiple scattering (enough for the hazy and foggy scenes).
-GALLERY_ORDERS = 20
 
 
 def available_models() -> list[str]:
@@ -130,8 +128,6 @@ def main(argv=None) -> int:
         if args.scale != 1.0:
             for k in ("width", "height"):
                 fields[k] = max(4, int(round(fields[k] * args.scale / 2)) * 2)
-        if fields["model"] == "multiple_scattering":
-            fields.setdefault("orders", GALLERY_ORDERS)
         scene = ac.Scene(name=stem, sun_disc=False, **fields)
         t0 = time.perf_counter()
         try:

@@ -80,9 +80,9 @@ import numpy as np
 
 from .._validate import check_range
 from . import _quadrature as qd
-from ._ms_gather import HAVE_KERNEL as _HAVE_KERNEL
 from ._ms_gather import Located as _Located
 from ._ms_gather import gather as _gather_kernel
+from ._ms_gather import have_kernel as _have_kernel
 from .single import (
     TABLE_THRESHOLD,
     _Batch,
@@ -633,7 +633,7 @@ class _Compact:
 def _compact(field: _Field, mc: _March):
     """Keep what later orders need of a node march (about 1/3 of its memory), or the
     march itself where no compiled kernel is available."""
-    if not _HAVE_KERNEL:
+    if not _have_kernel():
         return mc
     loc = _Located(field.shape_out, field.h_nodes, field.ths, field.mu_out,
                    mc.h, mc.mus, mc.mu, mc.cphi)

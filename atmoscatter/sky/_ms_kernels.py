@@ -1,0 +1,112 @@
+"""Compiled kernels of :mod:`atmoscatter.sky._ms_gather` (private; imported on first use,
+so that ``import atmoscatter`` does not import numba)."""
+
+import numba
+import numpy as np
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _locate(nodes, x):  # pragma: no cover - compiled
+    n = nodes.shape[0]
+    if x <= nodes[0]:
+        return 0, 0.0
+    if x >= nodes[n - 1]:
+        return n - 2, 1.0
+    lo, hi = 0, n - 1
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        if nodes[mid] <= x:
+            lo = mid
+        else:
+            hi = mid
+    return lo, (x - nodes[lo]) / (nodes[lo + 1] - nodes[lo])
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _locate_rows(n_s, n_mu, n_phi, h_nodes, th_nodes, mu_nodes, h, mus, mu, cphi,
+                 base, frac):  # pragma: no cover - compiled
+    """Flat row index of the (0, 0, 0, 0) corner and the four fractions per sample."""
+    N, M = h.shape
+    for n in range(N):
+        for s in range(M):
+            i, fi = _locate(h_nodes, h[n, s])
+            x = mus[n, s]
+            x = -1.0 if x < -1.0 else (1.0 if x > 1.0 else x)
+            j, fj = _locate(th_nodes, np.arccos(x))
+            k, fk = _locate(mu_nodes, mu[n, s])
+            y = cphi[n, s]
+            y = -1.0 if y < -1.0 else (1.0 if y > 1.0 else y)
+            xl = np.arccos(y) / np.pi * (n_phi - 1)
+            m = int(xl)
+            if m > n_phi - 2:
+                m = n_phi - 2
+            base[n, s] = ((i * n_s + j) * n_mu + k) * n_phi + m
+            frac[n, s, 0] = fi
+            frac[n, s, 1] = fj
+            frac[n, s, 2] = fk
+            frac[n, s, 3] = xl - m
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _lagrange4(x0, x1, x2, x3, x):  # pragma: no cover - compiled
+    w0 = (x - x1) * (x - x2) * (x - x3) / ((x0 - x1) * (x0 - x2) * (x0 - x3))
+    w1 = (x - x0) * (x - x2) * (x - x3) / ((x1 - x0) * (x1 - x2) * (x1 - x3))
+    w2 = (x - x0) * (x - x1) * (x - x3) / ((x2 - x0) * (x2 - x1) * (x2 - x3))
+    w3 = (x - x0) * (x - x1) * (x - x2) / ((x3 - x0) * (x3 - x1) * (x3 - x2))
+    return w0, w1, w2, w3
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _gather_located(flat, n_s, n_mu, n_phi, th_nodes, base, frac, wt, out):  # pragma: no cover
+    C = flat.shape[1]
+    N, M = base.shape
+    a = np.empty((4, C))
+    d_h = n_s * n_mu * n_phi
+    d_s = n_mu * n_phi
+    for n in range(N):
+        for c in range(C):
+            out[n, c] = 0.0
+        for s in range(M):
+            b = base[n, s]
+            fi = frac[n, s, 0]
+            fj = frac[n, s, 1]
+            fk = frac[n, s, 2]
+            fm = frac[n, s, 3]
+            j = (b // d_s) % n_s
+            j0 = j - 1
+            if j0 < 0:
+                j0 = 0
+            if j0 > n_s - 4:
+                j0 = n_s - 4
+            x = th_nodes[j] + fj * (th_nodes[j + 1] - th_nodes[j])
+            l0, l1, l2, l3 = _lagrange4(th_nodes[j0], th_nodes[j0 + 1], th_nodes[j0 + 2],
+                                        th_nodes[j0 + 3], x)
+            bb = b + (j0 - j) * d_s
+            for q in range(4):
+                for c in range(C):
+                    a[q, c] = 0.0
+            for di in range(2):
+                wi = fi if di == 1 else 1.0 - fi
+                for dk in range(2):
+                    wk = fk if dk == 1 else 1.0 - fk
+                    w = wi * wk
+                    w0 = w * (1.0 - fm)
+                    w1 = w * fm
+                    b0 = bb + di * d_h + dk * n_phi
+                    for q in range(4):
+                        bq = b0 + q * d_s
+                        for c in range(C):
+                            a[q, c] += flat[bq, c] * w0 + flat[bq + 1, c] * w1
+            jj = j - j0  # position of node j in the stencil
+            for c in range(C):
+                if a[0, c] > 0.0 and a[1, c] > 0.0 and a[2, c] > 0.0 and a[3, c] > 0.0:
+                    v = np.exp(l0 * np.log(a[0, c]) + l1 * np.log(a[1, c])
+                               + l2 * np.log(a[2, c]) + l3 * np.log(a[3, c]))
+                else:
+                    p0 = a[jj, c]
+                    p1 = a[jj + 1, c]
+                    if p0 > 0.0 and p1 > 0.0:
+                        v = p0 * np.exp(fj * np.log(p1 / p0))
+                    else:
+                        v = (1.0 - fj) * p0 + fj * p1
+                out[n, c] += wt[n, s, c] * v
