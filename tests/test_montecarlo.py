@@ -461,10 +461,10 @@ def test_sunset_twilight_against_monte_carlo(elev, name):
             f"MS part: ours/mc = {(ours - ours1) / mc_ms:.4f} ± {sig_ms / mc_ms:.4f} (1σ)")
 
 
-def twilight_table(scale=1.0):
+def twilight_table(scale=1.0, cases=None):
     """(case, mc, ours, ratio, σ_rel, ms ratio, σ_ms_rel) rows for scripts/ms_reference_check.py."""
     rows = []
-    for (elev, name) in _PER_PATH_RSD:
+    for (elev, name) in cases or _PER_PATH_RSD:
         n = max(2000, int(_n_paths(elev, name) * scale))
         mc, sig, mc_ms, sig_ms, ours, ours1 = _twilight_case(elev, name, n)
         rows.append((f"sun{elev:+.0f}deg-{name}", n, mc, ours, ours / mc, sig / mc,

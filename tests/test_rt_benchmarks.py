@@ -216,10 +216,10 @@ def _benchmark(case):
     return label, tol_total, tol_ms, rows
 
 
-def benchmark_table():
+def benchmark_table(cases=None):
     """(case, regime, level, UMU, reference, ours, ratio) rows for scripts/ms_reference_check.py."""
     out = []
-    for case in _CASES:
+    for case in cases or _CASES:
         label, _, _, rows = _benchmark(case)
         for alt, u, ref, total, _ in rows:
             out.append((f"DISORT {case}", label, "top" if alt > 0 else "bottom", u, ref, total,
