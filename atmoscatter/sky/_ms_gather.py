@@ -7,8 +7,11 @@ own nodes for the next order, and the caller's rays at the end — needs
 
     I(ray) = Σ_samples  w · T · β ρ  ·  S(h, θ_s, μ, φ at the sample)
 
-with ``S`` interpolated at each sample.  Interpolation is multilinear in altitude, ``μ``
-and ``φ`` and *cubic in* ``log S`` along ``θ_s`` (through the four nearest solar-zenith
+with ``S`` interpolated at each sample.  Interpolation is bilinear in ``μ`` and ``φ``,
+geometric (log-linear) in altitude — the source of an optically thick layer, or of the
+air below the shadow height at twilight, falls roughly exponentially with depth, and
+linear interpolation overestimated it (DISORT case 2C: 6 % of the multiple-scattering
+part) — and *cubic in* ``log S`` along ``θ_s`` (through the four nearest solar-zenith
 nodes): near and below the horizon the field falls by about e per degree of solar
 depression (the lit part of the atmosphere shrinks by about one scale height per
 degree), which interpolation of the logarithm follows and linear interpolation of the
@@ -71,14 +74,20 @@ def gather_numpy(table, h_nodes, th_nodes, mu_nodes, h, mus, mu, cphi, wt):
     j0 = np.clip(j - 1, 0, n_s - 4)
     side = []
     for q in range(4):
-        acc = np.zeros((h.size, C))
-        for di, wi in ((0, 1 - fi), (1, fi)):
+        lev = []
+        for di in (0, 1):
+            acc = np.zeros((h.size, C))
             for dk, wk in ((0, 1 - fk), (1, fk)):
                 base = (((i + di) * n_s + (j0 + q)) * n_mu + (k + dk)) * n_phi + m
-                w = wi * wk
-                acc += flat[base] * (w * (1 - fm))[:, None]
-                acc += flat[base + 1] * (w * fm)[:, None]
-        side.append(acc)
+                acc += flat[base] * (wk * (1 - fm))[:, None]
+                acc += flat[base + 1] * (wk * fm)[:, None]
+            lev.append(acc)
+        x0, x1 = lev
+        g = fi[:, None]
+        both = (x0 > 0) & (x1 > 0)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            geo_h = x0 * np.exp(g * np.log(np.where(both, x1, 1.0) / np.where(both, x0, 1.0)))
+        side.append(np.where(both, geo_h, (1 - g) * x0 + g * x1))
     a = np.stack(side)  # (4, K, C)
     x = th_nodes[j] + fj * (th_nodes[j + 1] - th_nodes[j])
     lw = _lagrange4_numpy(np.stack([th_nodes[j0 + q] for q in range(4)]), x)  # (4, K)

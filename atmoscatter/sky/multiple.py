@@ -124,7 +124,7 @@ class MultipleScatteringGrid:
 
     n_altitude: int = 16
     n_sun: int = 32
-    n_mu: int = 16
+    n_mu: int = 24
     n_phi: int = 9
     order: int = 3
     max_sun_zenith: float = 120.0
@@ -354,10 +354,16 @@ class _SunTransmittance:
 class _Field:
     """Node sets of the field: altitude × solar zenith × direction.
 
-    The radiance ``L`` of an order lives at the quadrature directions (double Gauss in
-    ``μ`` × uniform ``φ``); the source ``S = ∫ L p dω′`` is evaluated at the same ``μ``
-    nodes plus the zenith and the nadir (``mu_out``), so that the interpolation in ``μ``
-    spans [−1, 1] without clamping.
+    The radiance ``L`` of an order lives at the quadrature directions (Gauss nodes in ``μ``
+    × uniform ``φ``); the source ``S = ∫ L p dω′`` is evaluated at fixed output nodes
+    ``mu_out`` (double Gauss plus the zenith and the nadir), so that the interpolation in
+    ``μ`` spans [−1, 1] without clamping.
+
+    The ``μ`` quadrature of each altitude is split where the radiance is discontinuous:
+    at the horizontal and at the horizon ``μ_h = −√(1 − (R/r)²)`` of that altitude, below
+    which rays end on the ground (Gauss nodes on [μ_h, 0] — the limb, which at twilight is
+    the brightest part of the sky seen from above — and on [−1, μ_h]).  On the ground, and
+    where the limb band is narrower than ``μ = 0.02`` (below ~1.3 km), it is double Gauss.
     """
 
     def __init__(self, atm: qd.PreparedAtmosphere, grid: MultipleScatteringGrid):
@@ -365,11 +371,20 @@ class _Field:
         self.h_nodes = _altitude_nodes(atm, grid.n_altitude)
         self.ths = grid.sun_zenith_nodes()
         self.th_max = float(self.ths[-1])
-        xg, wg = np.polynomial.legendre.leggauss(grid.n_mu // 2)
-        half = 0.5 * (xg + 1.0)
-        self.mu_nodes = np.concatenate([-half[::-1], half])
-        self.mu_w = np.concatenate([0.5 * wg[::-1], 0.5 * wg])
+        n = grid.n_mu
+        self.mu_nodes, self.mu_w = _gauss_split([-1.0, 0.0, 1.0], [n // 2, n // 2])
         self.mu_out = np.concatenate([[-1.0], self.mu_nodes, [1.0]])
+        R = atm.planet_radius
+        qs = []
+        for h in self.h_nodes:
+            mu_h = -np.sqrt(max(0.0, 1.0 - (R / (R + h)) ** 2))
+            n_limb = n // 4 if (-mu_h >= 0.02 and n >= 8) else 0
+            if n_limb:
+                qs.append(_gauss_split([-1.0, mu_h, 0.0, 1.0], [n // 2 - n_limb, n_limb, n // 2]))
+            else:
+                qs.append((self.mu_nodes, self.mu_w))
+        self.mu_q = np.array([q[0] for q in qs])  # (n_alt, n_mu) quadrature nodes
+        self.mu_wq = np.array([q[1] for q in qs])  # their weights (sum 1 per altitude)
         self.phi_nodes = np.linspace(0.0, np.pi, grid.n_phi)
         self.shape = (grid.n_altitude, grid.n_sun, grid.n_mu, grid.n_phi)
         self.shape_out = (grid.n_altitude, grid.n_sun, grid.n_mu + 2, grid.n_phi)
@@ -382,33 +397,54 @@ class _Field:
         return np.stack([st * np.cos(pp), st * np.sin(pp), mm], axis=-1).reshape(-1, 3)
 
     def phase_matrices(self) -> np.ndarray:
-        """(n_sc, n_out, n_dir) row-normalised discrete phase operators.
+        """(n_alt, n_sc, n_out, n_dir) row-normalised discrete phase operators.
 
-        Row ``a`` integrates over the full circle of quadrature directions (folded onto
-        the half circle 0–π by the symmetry of the field about the solar vertical) for the
-        output direction ``a`` of ``mu_out`` × ``phi_nodes``.  Rows are normalised so that
-        an isotropic field is reproduced exactly (the discrete operator conserves energy).
+        Row ``a`` integrates over the full circle of an altitude's quadrature directions
+        (folded onto the half circle 0–π by the symmetry of the field about the solar
+        vertical) for the output direction ``a`` of ``mu_out`` × ``phi_nodes``.  Rows are
+        normalised so that an isotropic field is reproduced exactly (the discrete operator
+        conserves energy).
         """
         nphi = self.grid.n_phi
         m_full = np.arange(2 * (nphi - 1))
         phi_full = np.pi * m_full / (nphi - 1)
         fold = np.where(m_full <= nphi - 1, m_full, 2 * (nphi - 1) - m_full)
         d_out = self.directions(self.mu_out)
-        mu_f, ph_f = np.meshgrid(self.mu_nodes, phi_full, indexing="ij")
-        st = np.sqrt(1.0 - mu_f * mu_f)
-        dfull = np.stack([st * np.cos(ph_f), st * np.sin(ph_f), mu_f], axis=-1).reshape(-1, 3)
-        wfull = (self.mu_w[:, None] * np.ones_like(ph_f)).ravel()
         target = (np.arange(self.grid.n_mu)[:, None] * nphi + fold[None, :]).ravel()
-        cos = np.clip(d_out @ dfull.T, -1.0, 1.0)
         n_dir = self.grid.n_mu * nphi
+        cache = {}
         out = []
-        for _, _, phase in self.atm.scatterers:
-            p = np.asarray(phase(cos), dtype=float) * wfull[None, :]
-            p /= np.sum(p, axis=1, keepdims=True)
-            folded = np.zeros((d_out.shape[0], n_dir))
-            np.add.at(folded.T, target, p.T)
-            out.append(folded)
+        for mu_q, w_q in zip(self.mu_q, self.mu_wq, strict=True):
+            key = mu_q.tobytes()
+            if key not in cache:
+                mu_f, ph_f = np.meshgrid(mu_q, phi_full, indexing="ij")
+                st = np.sqrt(np.maximum(1.0 - mu_f * mu_f, 0.0))
+                dfull = np.stack([st * np.cos(ph_f), st * np.sin(ph_f), mu_f], axis=-1).reshape(-1, 3)
+                wfull = (w_q[:, None] * np.ones_like(ph_f)).ravel()
+                cos = np.clip(d_out @ dfull.T, -1.0, 1.0)
+                per = []
+                for _, _, phase in self.atm.scatterers:
+                    p = np.asarray(phase(cos), dtype=float) * wfull[None, :]
+                    p /= np.sum(p, axis=1, keepdims=True)
+                    folded = np.zeros((d_out.shape[0], n_dir))
+                    np.add.at(folded.T, target, p.T)
+                    per.append(folded)
+                cache[key] = np.asarray(per)
+            out.append(cache[key])
         return np.asarray(out)
+
+
+def _gauss_split(edges, counts):
+    """Composite Gauss–Legendre nodes/weights on consecutive intervals of ``edges`` (μ),
+    ``counts[k]`` nodes on ``[edges[k], edges[k+1]]``; weights sum to 1 over [−1, 1]."""
+    nodes, weights = [], []
+    for a, b, n in zip(edges[:-1], edges[1:], counts, strict=True):
+        if n <= 0:
+            continue
+        x, w = np.polynomial.legendre.leggauss(int(n))
+        nodes.append(a + (b - a) * 0.5 * (x + 1.0))
+        weights.append(0.5 * (b - a) * w / 2.0)
+    return np.concatenate(nodes), np.concatenate(weights)
 
 
 def _altitude_nodes(atm: qd.PreparedAtmosphere, n: int, tau0: float = 0.05) -> np.ndarray:
@@ -482,7 +518,6 @@ class _FieldState:
     def __init__(self, atm: qd.PreparedAtmosphere, grid: MultipleScatteringGrid, albedo: float):
         self.atm, self.albedo = atm, albedo
         self.field = field = _Field(atm, grid)
-        dirs = field.directions()
         nwl = atm.n_wavelengths
         n_r, n_s, n_mu, n_phi = field.shape
         self.marches = {}
@@ -499,6 +534,7 @@ class _FieldState:
             r0 = atm.planet_radius + field.h_nodes[i]
             th = field.ths[j]
             s = np.array([np.sin(th), 0.0, np.cos(th)])
+            dirs = field.directions(field.mu_q[i])
             mc = _march(atm, r0, dirs, s, grid.order)
             # order 1: single scattering of the tabulated sun transmittance (the phase
             # function is constant along a straight ray) + ground-reflected direct sun
@@ -514,7 +550,7 @@ class _FieldState:
                 self.marches[i, j] = _compact(field, mc)
 
         _run_cells(first, cells)
-        self.W = field.phase_matrices()  # (nsc, n_out, ndir)
+        self.W = field.phase_matrices()  # (n_alt, nsc, n_out, ndir)
         self.L = L  # field of the highest order computed so far
         self.S: list[np.ndarray] = []  # S^1, S^2, ...
 
@@ -523,14 +559,13 @@ class _FieldState:
         n_r, n_s, n_mu, n_phi = f.shape
         nsc, nwl = len(self.atm.scatterers), self.atm.n_wavelengths
         Lf = L.reshape(n_r, n_s, n_mu * n_phi, nwl)
-        S = np.einsum("iab,rsbw->rsaiw", self.W, Lf)
+        S = np.einsum("riab,rsbw->rsaiw", self.W, Lf)
         return np.ascontiguousarray(S).reshape(f.shape_out + (nsc, nwl))
 
     def _next_field(self, S):
         f = self.field
         E = _ground_irradiance(f, self.L) if self.albedo > 0 else None
         Lnew = np.zeros_like(self.L)
-        dirs = f.directions()
         n_mu, n_phi = f.shape[2:]
         S_flat = np.ascontiguousarray(S).reshape(f.shape_out + (-1,))
 
@@ -540,8 +575,8 @@ class _FieldState:
             if mc is None:
                 th = f.ths[j]
                 s = np.array([np.sin(th), 0.0, np.cos(th)])
-                mc = _march(self.atm, self.atm.planet_radius + f.h_nodes[i], dirs, s,
-                            f.grid.order)
+                mc = _march(self.atm, self.atm.planet_radius + f.h_nodes[i],
+                            f.directions(f.mu_q[i]), s, f.grid.order)
             if not isinstance(mc, _Compact):
                 path = _gather(f, mc, S)
             else:
@@ -660,7 +695,7 @@ _MAX_AUTO_ORDERS = 200
 
 
 #: version of the algorithm behind a stored field: bump when the field's values change
-_FIELD_VERSION = 2
+_FIELD_VERSION = 3
 _RESULTS: dict = {}  # in-process: disk-cache key -> (S_sum, orders, tail)
 _RESULTS_MAX = 8
 
