@@ -240,3 +240,35 @@ def test_large_batches_give_the_answer_of_small_ones(monkeypatch, turbidity, sun
     ok = ms >= 1e-6 * np.max(ms, axis=0)
     err = np.abs(tab - direct)[ok] / ms[ok]
     assert np.max(err) <= 5e-3, f"table vs direct: {np.max(err):.2e} of the MS part"
+
+
+@pytest.mark.parametrize(
+    "kwargs, match",
+    [({"n_sun": 1}, "n_sun must be an integer >= 2"),
+     ({"n_altitude": 0}, "n_altitude"),
+     ({"n_mu": 7}, "n_mu must be even"),
+     ({"n_phi": 2.5}, "n_phi"),
+     ({"order": 0}, "order must be an integer >= 1"),
+     ({"max_sun_zenith": 80.0}, r"max_sun_zenith must be in \(90, 180\]"),
+     ({"horizon_density": 0.5}, "horizon_density")],
+)
+def test_bad_grid_is_a_one_line_error(kwargs, match):
+    with pytest.raises(ValueError, match=match) as err:
+        MultipleScatteringGrid(**kwargs)
+    assert "\n" not in str(err.value) and "got" in str(err.value)
+
+
+def test_negative_albedo_is_a_one_line_error():
+    with pytest.raises(ValueError, match="ground_albedo") as err:
+        multiple_scattering(_atm(), _V, _S, ground_albedo=-0.1)
+    assert "\n" not in str(err.value)
+
+
+def test_sun_nodes_are_dense_near_and_below_the_horizon():
+    """The solar-zenith nodes are ≤ 2.1° apart from 80° to 104° (where the field falls by
+    about e per degree) and span 0 to max_sun_zenith."""
+    th = np.degrees(MultipleScatteringGrid().sun_zenith_nodes())
+    assert th[0] == 0.0 and th[-1] == pytest.approx(120.0)
+    assert np.all(np.diff(th) > 0)
+    mid = (th[:-1] + th[1:]) / 2
+    assert np.max(np.diff(th)[(mid > 80) & (mid < 104)]) <= 2.1
