@@ -265,10 +265,10 @@ def test_negative_albedo_is_a_one_line_error():
 
 
 def test_sun_nodes_are_dense_near_and_below_the_horizon():
-    """The solar-zenith nodes are ≤ 2.1° apart from 80° to 104° (where the field falls by
+    """The solar-zenith nodes are ≤ 2.2° apart from 80° to 104° (where the field falls by
     about e per degree) and span 0 to max_sun_zenith."""
     th = np.degrees(MultipleScatteringGrid().sun_zenith_nodes())
     assert th[0] == 0.0 and th[-1] == pytest.approx(120.0)
     assert np.all(np.diff(th) > 0)
     mid = (th[:-1] + th[1:]) / 2
-    assert np.max(np.diff(th)[(mid > 80) & (mid < 104)]) <= 2.1
+    assert np.max(np.diff(th)[(mid > 80) & (mid < 104)]) <= 2.2

@@ -155,7 +155,7 @@ class MultipleScatteringGrid:
         """Solar zenith nodes [rad], increasing, from 0 to ``max_sun_zenith``.
 
         Equidistributed in the node density ``1 + (horizon_density − 1)
-        exp(−((θ − 92°)/16°)²)``: with the defaults 8.4° apart at the zenith, 1.4–2.1°
+        exp(−((θ − 92°)/16°)²)``: with the defaults 8.4° apart at the zenith, 1.4–2.2°
         from 80° to 104° (sun 14° below the horizon), 2.5–4° to 110°.
         """
         th = np.linspace(0.0, float(self.max_sun_zenith), 4001)
