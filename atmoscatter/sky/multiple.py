@@ -122,7 +122,7 @@ class MultipleScatteringGrid:
         (1: uniform nodes).
     """
 
-    n_altitude: int = 16
+    n_altitude: int = 20
     n_sun: int = 32
     n_mu: int = 24
     n_phi: int = 9
