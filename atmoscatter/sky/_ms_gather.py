@@ -7,18 +7,19 @@ own nodes for the next order, and the caller's rays at the end — needs
 
     I(ray) = Σ_samples  w · T · β ρ  ·  S(h, θ_s, μ, φ at the sample)
 
-with ``S`` interpolated at each sample.  Interpolation is bilinear in ``μ`` and ``φ``,
-geometric (log-linear) in altitude — the source of an optically thick layer, or of the
-air below the shadow height at twilight, falls roughly exponentially with depth, and
-linear interpolation overestimated it (DISORT case 2C: 6 % of the multiple-scattering
-part) — and *cubic in* ``log S`` along ``θ_s`` (through the four nearest solar-zenith
+with ``S`` interpolated at each sample.  Interpolation is on ``log S``: multilinear in ``μ`` and ``φ`` and in altitude — the
+source of an optically thick layer, or of the air below the shadow height at twilight,
+falls roughly exponentially with depth, and linear interpolation of the values
+overestimated it (DISORT case 2C: 6 % of the multiple-scattering part) — and cubic
+along ``θ_s`` (through the four nearest solar-zenith
 nodes): near and below the horizon the field falls by about e per degree of solar
 depression (the lit part of the atmosphere shrinks by about one scale height per
 degree), which interpolation of the logarithm follows and linear interpolation of the
 values overestimates by orders of magnitude between nodes; the cubic removes the
 second-order error that remains with log-linear interpolation at low sun (4 % of the
-multiple-scattering part of the DISORT Rayleigh case 2B with nodes 2.7° apart).  Where
-any of the four values is not positive, log-linear (or linear) between the neighbours.
+multiple-scattering part of the DISORT Rayleigh case 2B with nodes 2.7° apart).  Values
+below :data:`LOG_FLOOR` of a channel's maximum are floored there ("dark").  One
+exponential per sample and channel: the logarithms are taken once per table.
 
 Two implementations compute the same thing: a compiled kernel (numba, released GIL,
 threaded by the caller over chunks of rays) and a NumPy one, which is the fallback
@@ -53,17 +54,32 @@ def _lagrange4_numpy(xs, x):
     return np.stack(w)
 
 
-def gather_numpy(table, h_nodes, th_nodes, mu_nodes, h, mus, mu, cphi, wt):
+#: values of the source below this fraction of a channel's maximum are floored there
+#: before taking logarithms (they stand for "dark": e.g. deep inside the planet's shadow)
+LOG_FLOOR = 1e-30
+
+
+def log_table(table: np.ndarray) -> np.ndarray:
+    """``log S`` of a source table (..., C), floored at :data:`LOG_FLOOR` × each channel's
+    maximum (and at the smallest normal number)."""
+    C = table.shape[-1]
+    flat = table.reshape(-1, C)
+    top = np.max(flat, axis=0) if flat.size else np.ones(C)
+    floor = np.maximum(top * LOG_FLOOR, np.finfo(float).tiny)
+    return np.log(np.maximum(table, floor))
+
+
+def gather_numpy(table, h_nodes, th_nodes, mu_nodes, h, mus, mu, cphi, wt, logt=None):
     """``Σ_m wt[n, m, c] S_c(sample)`` → (N, C); ``table`` is (n_h, n_s, n_mu, n_phi, C).
 
-    Along the solar zenith angle ``log S`` is interpolated by the cubic through the four
-    nearest nodes (the two around the sample and one more on each side, shifted inward
-    at the ends of the grid); where any of the four values is not positive, log-linearly
-    between the two neighbours (linearly if one of them is zero).
+    ``log S`` (:func:`log_table`) is interpolated multilinearly in altitude, ``μ`` and
+    ``φ`` and by the cubic through the four nearest nodes (shifted inward at the ends of
+    the grid) along the solar zenith angle, then exponentiated.
     """
     n_h, n_s, n_mu, n_phi, C = table.shape
     N, M = h.shape
-    flat = table.reshape(-1, C)
+    logt = log_table(table) if logt is None else logt
+    flat = logt.reshape(-1, C)
     i, fi = _locate_numpy(h_nodes, h.ravel())
     th = np.clip(np.arccos(np.clip(mus.ravel(), -1.0, 1.0)), th_nodes[0], th_nodes[-1])
     j, fj = _locate_numpy(th_nodes, th)
@@ -72,37 +88,17 @@ def gather_numpy(table, h_nodes, th_nodes, mu_nodes, h, mus, mu, cphi, wt):
     m = np.clip(xl.astype(np.intp), 0, n_phi - 2)
     fm = xl - m
     j0 = np.clip(j - 1, 0, n_s - 4)
-    side = []
-    for q in range(4):
-        lev = []
-        for di in (0, 1):
-            acc = np.zeros((h.size, C))
-            for dk, wk in ((0, 1 - fk), (1, fk)):
-                base = (((i + di) * n_s + (j0 + q)) * n_mu + (k + dk)) * n_phi + m
-                acc += flat[base] * (wk * (1 - fm))[:, None]
-                acc += flat[base + 1] * (wk * fm)[:, None]
-            lev.append(acc)
-        x0, x1 = lev
-        g = fi[:, None]
-        both = (x0 > 0) & (x1 > 0)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            geo_h = x0 * np.exp(g * np.log(np.where(both, x1, 1.0) / np.where(both, x0, 1.0)))
-        side.append(np.where(both, geo_h, (1 - g) * x0 + g * x1))
-    a = np.stack(side)  # (4, K, C)
     x = th_nodes[j] + fj * (th_nodes[j + 1] - th_nodes[j])
     lw = _lagrange4_numpy(np.stack([th_nodes[j0 + q] for q in range(4)]), x)  # (4, K)
-    pos4 = np.all(a > 0, axis=0)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        cubic = np.exp(np.sum(lw[..., None] * np.log(np.where(pos4, a, 1.0)), axis=0))
-    rows = np.arange(h.size)
-    jj = j - j0
-    a0, a1 = a[jj, rows], a[jj + 1, rows]
-    f = fj[:, None]
-    pos = (a0 > 0) & (a1 > 0)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        geo = a0 * np.exp(f * np.log(np.where(pos, a1, 1.0) / np.where(pos, a0, 1.0)))
-    val = np.where(pos4, cubic, np.where(pos, geo, (1 - f) * a0 + f * a1))
-    return np.einsum("nmc,nmc->nc", wt, val.reshape(N, M, C))
+    acc = np.zeros((h.size, C))
+    for q in range(4):
+        for di, wi in ((0, 1 - fi), (1, fi)):
+            for dk, wk in ((0, 1 - fk), (1, fk)):
+                base = (((i + di) * n_s + (j0 + q)) * n_mu + (k + dk)) * n_phi + m
+                w = wi * wk * lw[q]
+                acc += flat[base] * (w * (1 - fm))[:, None]
+                acc += flat[base + 1] * (w * fm)[:, None]
+    return np.einsum("nmc,nmc->nc", wt, np.exp(acc).reshape(N, M, C))
 
 
 _KERNELS = None
@@ -118,7 +114,7 @@ def _kernels():
         except ImportError:  # pragma: no cover - numba is a declared dependency
             _KERNELS = False
         else:
-            _KERNELS = {"locate_rows": k._locate_rows, "gather_located": k._gather_located}
+            _KERNELS = {"locate_rows": k._locate_rows, "gather_log": k._gather_log}
     return _KERNELS or None
 
 
@@ -129,15 +125,18 @@ def have_kernel() -> bool:
 
 
 
-def gather(table, h_nodes, th_nodes, mu_nodes, h, mus, mu, cphi, wt, *, threads=1, use_kernel=True):
-    """Compiled (or NumPy) gather; same contract as :func:`gather_numpy`."""
+def gather(table, h_nodes, th_nodes, mu_nodes, h, mus, mu, cphi, wt, *, threads=1, use_kernel=True,
+           logt=None):
+    """Compiled (or NumPy) gather; same contract as :func:`gather_numpy` (``logt``: the
+    table's :func:`log_table`, if already computed)."""
     N, M = h.shape
     C = table.shape[-1]
+    logt = log_table(table) if logt is None else logt
     if not use_kernel or N == 0 or not have_kernel():
-        return gather_numpy(table, h_nodes, th_nodes, mu_nodes, h, mus, mu, cphi, wt)
+        return gather_numpy(table, h_nodes, th_nodes, mu_nodes, h, mus, mu, cphi, wt, logt)
     wt = np.ascontiguousarray(wt.reshape(N, M, C))
     if threads <= 1 or N < 256:
-        return Located(table.shape[:4], h_nodes, th_nodes, mu_nodes, h, mus, mu, cphi).gather(table, wt)
+        return Located(table.shape[:4], h_nodes, th_nodes, mu_nodes, h, mus, mu, cphi).gather(logt, wt)
     from concurrent.futures import ThreadPoolExecutor
 
     step = -(-N // threads)
@@ -145,7 +144,7 @@ def gather(table, h_nodes, th_nodes, mu_nodes, h, mus, mu, cphi, wt, *, threads=
     def part(a):
         sl = slice(a, min(a + step, N))
         loc = Located(table.shape[:4], h_nodes, th_nodes, mu_nodes, h[sl], mus[sl], mu[sl], cphi[sl])
-        return loc.gather(table, wt[sl])
+        return loc.gather(logt, wt[sl])
 
     with ThreadPoolExecutor(max_workers=threads) as pool:
         return np.concatenate(list(pool.map(part, range(0, N, step))), axis=0)
@@ -169,13 +168,14 @@ class Located:
         self.base = base.astype(np.int32)
         self.frac = frac.astype(np.float32)
 
-    def gather(self, table, wt):
-        """``Σ_m wt[n, m, c] S_c(sample)`` → (N, C) for ``table`` (*shape_out, C)."""
+    def gather(self, logt, wt):
+        """``Σ_m wt[n, m, c] exp(log S_c(sample))`` → (N, C) for the log table ``logt``
+        (*shape_out, C) of :func:`log_table`."""
         n_h, n_s, n_mu, n_phi = self.shape_out
-        C = table.shape[-1]
-        flat = np.ascontiguousarray(table, dtype=np.float64).reshape(-1, C)
+        C = logt.shape[-1]
+        flat = np.ascontiguousarray(logt, dtype=np.float64).reshape(-1, C)
         N, M = self.base.shape
         out = np.empty((N, C))
-        _kernels()["gather_located"](flat, n_s, n_mu, n_phi, self.th_nodes, self.base, self.frac,
-                        wt.reshape(N, M, C), out)
+        _kernels()["gather_log"](flat, n_s, n_mu, n_phi, self.th_nodes, self.base, self.frac,
+                                 wt.reshape(N, M, C), out)
         return out

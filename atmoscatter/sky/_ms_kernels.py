@@ -57,11 +57,12 @@ def _lagrange4(x0, x1, x2, x3, x):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
-def _gather_located(flat, n_s, n_mu, n_phi, th_nodes, base, frac, wt, out):  # pragma: no cover
-    C = flat.shape[1]
+def _gather_log(logflat, n_s, n_mu, n_phi, th_nodes, base, frac, wt, out):  # pragma: no cover
+    """``out[n, c] = Σ_s wt[n, s, c] exp(interpolated log S_c)``: multilinear in altitude,
+    μ and φ and cubic (4-point Lagrange) in θ_s, all on ``log S`` (``logflat``)."""
+    C = logflat.shape[1]
     N, M = base.shape
-    a = np.empty((2, 4, C))
-    A = np.empty((4, C))
+    acc = np.empty(C)
     d_h = n_s * n_mu * n_phi
     d_s = n_mu * n_phi
     for n in range(N):
@@ -83,39 +84,22 @@ def _gather_located(flat, n_s, n_mu, n_phi, th_nodes, base, frac, wt, out):  # p
             l0, l1, l2, l3 = _lagrange4(th_nodes[j0], th_nodes[j0 + 1], th_nodes[j0 + 2],
                                         th_nodes[j0 + 3], x)
             bb = b + (j0 - j) * d_s
+            for c in range(C):
+                acc[c] = 0.0
             for di in range(2):
-                for q in range(4):
-                    for c in range(C):
-                        a[di, q, c] = 0.0
-            for di in range(2):
+                wi = fi if di == 1 else 1.0 - fi
                 for dk in range(2):
                     wk = fk if dk == 1 else 1.0 - fk
-                    w0 = wk * (1.0 - fm)
-                    w1 = wk * fm
+                    w = wi * wk
+                    w0 = w * (1.0 - fm)
+                    w1 = w * fm
                     b0 = bb + di * d_h + dk * n_phi
                     for q in range(4):
+                        lq = l0 if q == 0 else (l1 if q == 1 else (l2 if q == 2 else l3))
                         bq = b0 + q * d_s
+                        u0 = w0 * lq
+                        u1 = w1 * lq
                         for c in range(C):
-                            a[di, q, c] += flat[bq, c] * w0 + flat[bq + 1, c] * w1
-            # altitude: geometric between the two levels where both are positive
-            for q in range(4):
-                for c in range(C):
-                    x0 = a[0, q, c]
-                    x1 = a[1, q, c]
-                    if x0 > 0.0 and x1 > 0.0:
-                        A[q, c] = x0 * np.exp(fi * np.log(x1 / x0))
-                    else:
-                        A[q, c] = (1.0 - fi) * x0 + fi * x1
-            jj = j - j0  # position of node j in the stencil
+                            acc[c] += logflat[bq, c] * u0 + logflat[bq + 1, c] * u1
             for c in range(C):
-                if A[0, c] > 0.0 and A[1, c] > 0.0 and A[2, c] > 0.0 and A[3, c] > 0.0:
-                    v = np.exp(l0 * np.log(A[0, c]) + l1 * np.log(A[1, c])
-                               + l2 * np.log(A[2, c]) + l3 * np.log(A[3, c]))
-                else:
-                    p0 = A[jj, c]
-                    p1 = A[jj + 1, c]
-                    if p0 > 0.0 and p1 > 0.0:
-                        v = p0 * np.exp(fj * np.log(p1 / p0))
-                    else:
-                        v = (1.0 - fj) * p0 + fj * p1
-                out[n, c] += wt[n, s, c] * v
+                out[n, c] += wt[n, s, c] * np.exp(acc[c])

@@ -83,6 +83,7 @@ from . import _quadrature as qd
 from ._ms_gather import Located as _Located
 from ._ms_gather import gather as _gather_kernel
 from ._ms_gather import have_kernel as _have_kernel
+from ._ms_gather import log_table as _log_table
 from .single import (
     TABLE_THRESHOLD,
     _Batch,
@@ -500,14 +501,16 @@ def _interp_e(field: _Field, E: np.ndarray, mus: np.ndarray) -> np.ndarray:
     return np.where(pos, geo, (1 - f) * a0 + f * a1)
 
 
-def _gather(field: _Field, march: _March, S: np.ndarray, threads: int = 1) -> np.ndarray:
-    """Σ_samples w T Σ_i β_i ρ_i S_i: S (n_r, n_s, n_out, n_phi, n_sc, nwl) → (N, nwl)."""
+def _gather(field: _Field, march: _March, S: np.ndarray, threads: int = 1,
+            logt: np.ndarray | None = None) -> np.ndarray:
+    """Σ_samples w T Σ_i β_i ρ_i S_i: S (n_r, n_s, n_out, n_phi, n_sc, nwl) → (N, nwl)
+    (``logt``: :func:`_ms_gather.log_table` of ``S`` flattened to channels, if known)."""
     nsc, nwl = S.shape[-2:]
     N, M = march.h.shape
     vals = _gather_kernel(
         S.reshape(field.shape_out + (nsc * nwl,)), field.h_nodes, field.ths, field.mu_out,
         march.h, march.mus, march.mu, march.cphi, march.wt.reshape(N, M, nsc * nwl),
-        threads=threads,
+        threads=threads, logt=logt,
     )
     return vals.reshape(N, nsc, nwl).sum(axis=1)
 
@@ -568,6 +571,7 @@ class _FieldState:
         Lnew = np.zeros_like(self.L)
         n_mu, n_phi = f.shape[2:]
         S_flat = np.ascontiguousarray(S).reshape(f.shape_out + (-1,))
+        logS = _log_table(S_flat)  # once per order
 
         def cell(ij):
             i, j = ij
@@ -578,10 +582,10 @@ class _FieldState:
                 mc = _march(self.atm, self.atm.planet_radius + f.h_nodes[i],
                             f.directions(f.mu_q[i]), s, f.grid.order)
             if not isinstance(mc, _Compact):
-                path = _gather(f, mc, S)
+                path = _gather(f, mc, S, logt=logS)
             else:
                 nsc, nwl = S.shape[-2:]
-                path = mc.loc.gather(S_flat, mc.wt).reshape(-1, nsc, nwl).sum(axis=1)
+                path = mc.loc.gather(logS, mc.wt).reshape(-1, nsc, nwl).sum(axis=1)
             if E is not None:
                 e = _interp_e(f, E, mc.mus_end)
                 path += np.where(mc.ground[:, None], mc.t_end * self.albedo / np.pi * e, 0.0)
@@ -876,6 +880,7 @@ def multiple_scattering(
     fin = finite.reshape(-1)
     vf = np.where(fin[:, None], vf, np.array([0.0, 0.0, 1.0]))
     r0 = atm.planet_radius + alt
+    logS = _log_table(np.ascontiguousarray(S_sum).reshape(field.shape_out + (-1,)))
     # rotate into the grid's frame is unnecessary: the march works in the local frame and
     # only uses local (h, μ, μ_s, cos φ) of every sample.
     def direct(vv):
@@ -887,7 +892,7 @@ def multiple_scattering(
             if act.size == 0:
                 continue
             mc = _march(atm, r0, vb[act], s, field.grid.order)
-            out[i0 + act] = _gather(field, mc, S_sum, threads=_THREADS)
+            out[i0 + act] = _gather(field, mc, S_sum, threads=_THREADS, logt=logS)
         return out
 
     if vf.shape[0] >= TABLE_THRESHOLD and r0 <= atm.top_radius:
