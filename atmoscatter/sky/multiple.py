@@ -174,7 +174,8 @@ MULTIPLE_SCATTERING_GRID = MultipleScatteringGrid()
 #: batches (≥ TABLE_THRESHOLD directions, observer inside the atmosphere)
 _MS_TABLE_NODES = (257, 33)
 
-_SUN_CENTRE, _SUN_WIDTH = 92.0, 16.0  # [deg] where the solar-zenith nodes are densest
+_SUN_CENTRE, _SUN_WIDTH = 92.0, 16.0
+_HORIZON_SPLIT = True  # μ quadrature split at each altitude's horizon (see _Field)  # [deg] where the solar-zenith nodes are densest
 _CACHE: dict = {}
 _CACHE_LOCK = threading.Lock()
 _CACHE_MAX = 4
@@ -379,13 +380,13 @@ class _Field:
         qs = []
         for h in self.h_nodes:
             mu_h = -np.sqrt(max(0.0, 1.0 - (R / (R + h)) ** 2))
-            n_limb = n // 4 if (-mu_h >= 0.02 and n >= 8) else 0
+            n_limb = n // 4 if (_HORIZON_SPLIT and -mu_h >= 0.02 and n >= 8) else 0
             if n_limb:
                 qs.append(_gauss_split([-1.0, mu_h, 0.0, 1.0], [n // 2 - n_limb, n_limb, n // 2]))
             else:
                 qs.append((self.mu_nodes, self.mu_w))
         self.mu_q = np.array([q[0] for q in qs])  # (n_alt, n_mu) quadrature nodes
-        self.mu_wq = np.array([q[1] for q in qs])  # their weights (sum 1 per altitude)
+        self.mu_wq = np.array([q[1] for q in qs])  # their weights (∫dμ: sum 2 per altitude)
         self.phi_nodes = np.linspace(0.0, np.pi, grid.n_phi)
         self.shape = (grid.n_altitude, grid.n_sun, grid.n_mu, grid.n_phi)
         self.shape_out = (grid.n_altitude, grid.n_sun, grid.n_mu + 2, grid.n_phi)
@@ -437,14 +438,15 @@ class _Field:
 
 def _gauss_split(edges, counts):
     """Composite Gauss–Legendre nodes/weights on consecutive intervals of ``edges`` (μ),
-    ``counts[k]`` nodes on ``[edges[k], edges[k+1]]``; weights sum to 1 over [−1, 1]."""
+    ``counts[k]`` nodes on ``[edges[k], edges[k+1]]``; the weights integrate ``dμ`` (they
+    sum to 2 over [−1, 1]: ``_ground_irradiance`` relies on it)."""
     nodes, weights = [], []
     for a, b, n in zip(edges[:-1], edges[1:], counts, strict=True):
         if n <= 0:
             continue
         x, w = np.polynomial.legendre.leggauss(int(n))
         nodes.append(a + (b - a) * 0.5 * (x + 1.0))
-        weights.append(0.5 * (b - a) * w / 2.0)
+        weights.append(0.5 * (b - a) * w)
     return np.concatenate(nodes), np.concatenate(weights)
 
 
@@ -699,7 +701,7 @@ _MAX_AUTO_ORDERS = 200
 
 
 #: version of the algorithm behind a stored field: bump when the field's values change
-_FIELD_VERSION = 3
+_FIELD_VERSION = 4
 _RESULTS: dict = {}  # in-process: disk-cache key -> (S_sum, orders, tail)
 _RESULTS_MAX = 8
 
