@@ -58,9 +58,8 @@ def _lagrange4(x0, x1, x2, x3, x):  # pragma: no cover - compiled
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
 def _gather_log(logflat, n_s, n_mu, n_phi, th_nodes, base, frac, wt, out):  # pragma: no cover
-    """``out[n, c] = Σ_s wt[n, s, c] S_c(sample)``: at each of the two altitude levels
-    ``log S`` (``logflat``) is interpolated bilinearly in μ and φ and by a 4-point Lagrange
-    cubic in θ_s and exponentiated; the two levels are combined linearly."""
+    """``out[n, c] = Σ_s wt[n, s, c] exp(interpolated log S_c)``: multilinear in altitude,
+    μ and φ and cubic (4-point Lagrange) in θ_s, all on ``log S`` (``logflat``)."""
     C = logflat.shape[1]
     N, M = base.shape
     acc = np.empty(C)
@@ -85,13 +84,15 @@ def _gather_log(logflat, n_s, n_mu, n_phi, th_nodes, base, frac, wt, out):  # pr
             l0, l1, l2, l3 = _lagrange4(th_nodes[j0], th_nodes[j0 + 1], th_nodes[j0 + 2],
                                         th_nodes[j0 + 3], x)
             bb = b + (j0 - j) * d_s
+            for c in range(C):
+                acc[c] = 0.0
             for di in range(2):
-                for c in range(C):
-                    acc[c] = 0.0
+                wi = fi if di == 1 else 1.0 - fi
                 for dk in range(2):
                     wk = fk if dk == 1 else 1.0 - fk
-                    w0 = wk * (1.0 - fm)
-                    w1 = wk * fm
+                    w = wi * wk
+                    w0 = w * (1.0 - fm)
+                    w1 = w * fm
                     b0 = bb + di * d_h + dk * n_phi
                     for q in range(4):
                         lq = l0 if q == 0 else (l1 if q == 1 else (l2 if q == 2 else l3))
@@ -100,7 +101,5 @@ def _gather_log(logflat, n_s, n_mu, n_phi, th_nodes, base, frac, wt, out):  # pr
                         u1 = w1 * lq
                         for c in range(C):
                             acc[c] += logflat[bq, c] * u0 + logflat[bq + 1, c] * u1
-                # linear in altitude between the two levels
-                wi = fi if di == 1 else 1.0 - fi
-                for c in range(C):
-                    out[n, c] += wt[n, s, c] * wi * np.exp(acc[c])
+            for c in range(C):
+                out[n, c] += wt[n, s, c] * np.exp(acc[c])
