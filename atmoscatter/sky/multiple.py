@@ -43,7 +43,7 @@ by the exact density and transmittance on graded Gauss–Legendre panels.  With
 and the tail itself is added (:meth:`_FieldState.converged_sum`).  Large batches (≥
 ``TABLE_THRESHOLD`` directions, observer inside the atmosphere) tabulate the smooth
 multiple-scattering part over the observer's sky (257 × 33 nodes) and interpolate it; a
-test proves the table gives the small-batch answer within 0.5 % of the multiple-scattering
+test proves the table gives the small-batch answer within 1 % of the multiple-scattering
 part in every regime where it is used.
 
 The field depends only on the atmosphere, the albedo, the grid and the order setting —
