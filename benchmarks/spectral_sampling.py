@@ -327,6 +327,56 @@ def markdown(rows, rule, header, refcheck=None):
     return "\n".join(out)
 
 
+DOC_ELEVATIONS = (60.0, 2.0, -6.0, -10.0)
+BEGIN, END = "<!-- spectral_sampling:begin (generated) -->", "<!-- spectral_sampling:end -->"
+
+
+def doc_table(rows, rule):
+    """Short table for docs/numerical_scattering.md: rgb and the rule's step at the
+    elevations of :data:`DOC_ELEVATIONS`, and the cost."""
+    step = float(rule["wavelength_step_nm"])
+    out = [BEGIN, "", "| T | sun [deg] | rgb ΔE2000 p95 (max) | rgb Y err max "
+           f"| {step:g} nm ΔE2000 p95 (max) | {step:g} nm Y err max |", "|---|---|---|---|---|---|"]
+    for T in sorted({float(r["turbidity"]) for r in rows}):
+        for e in DOC_ELEVATIONS:
+            sel = [r for r in rows if float(r["turbidity"]) == T and float(r["sun_elevation"]) == e]
+            rgb = [r for r in sel if r["sampling"] == "rgb"]
+            spc = [r for r in sel if r["sampling"] == "spectral" and r["step"] != ""
+                   and float(r["step"]) == step]
+            if not rgb or not spc:
+                continue
+            a, b = rgb[0], spc[0]
+            out.append(f"| {T:g} | {e:g} | {_f(a['dE_p95'], '.2f')} ({_f(a['dE_max'], '.2f')}) "
+                       f"| {_f(a['Y_err_max'], '.1%')} | {_f(b['dE_p95'], '.2f')} "
+                       f"({_f(b['dE_max'], '.2f')}) | {_f(b['Y_err_max'], '.1%')} |")
+    out += ["", "| T | sampling | wavelengths | first render (field from scratch) [s] "
+            "| warm render [s] |", "|---|---|---|---|---|"]
+    seen = set()
+    for r in rows:
+        key = (r["turbidity"], r["sampling"], r["n_wavelengths"])
+        if key in seen or not np.isfinite(float(r["cold_s"])):
+            continue
+        seen.add(key)
+        samp = r["sampling"] if r["sampling"] == "rgb" else f"spectral {_f(r['step'], 'g')} nm"
+        out.append(f"| {_f(r['turbidity'], 'g')} | {samp} | {r['n_wavelengths']} "
+                   f"| {_f(r['cold_s'], '.1f')} | {_f(r['warm_s'], '.3f')} |")
+    out += ["", f"Rule (from the full table): below {rule['elevation_threshold_deg']:g}° sun "
+            f"elevation `sampling=\"auto\"` samples every {step:g} nm "
+            f"({rule['n_wavelengths']} wavelengths); target ΔE2000 (95th percentile over the "
+            f"sky) ≤ {rule['limit_dE2000']:g}.", "", END]
+    return "\n".join(out)
+
+
+def update_doc(path, block):
+    """Replace the generated block between the markers of ``path`` (atomic write)."""
+    with open(path, encoding="utf-8") as fh:
+        text = fh.read()
+    i, j = text.find(BEGIN), text.find(END)
+    if i < 0 or j < 0:
+        raise SystemExit(f"{path}: markers {BEGIN!r} ... {END!r} not found")
+    write_text(path, text[:i] + block + text[j + len(END):])
+
+
 def write_text(path, text):
     tmp = path + ".tmp"
     with open(tmp, "w", encoding="utf-8") as fh:
@@ -377,6 +427,8 @@ def main(argv=None):
               f"Python {sys.version.split()[0]}).  Do not edit by hand.")
     write_text(md_path, markdown(rows, rule, header, refcheck))
     write_text(json_path, json.dumps(rule, indent=1, sort_keys=True) + "\n")
+    if not args.quick:
+        update_doc(os.path.join(ROOT, "docs", "numerical_scattering.md"), doc_table(rows, rule))
     print(f"wrote {md_path}, {csv_path if not args.from_csv else ''} {json_path}")
     print(json.dumps(rule, indent=1))
 
