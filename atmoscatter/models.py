@@ -401,6 +401,8 @@ def _drop_empty(atm):
 
 
 def _physical_wavelengths(scene):
+    """Wavelengths [nm] of a scene whose ``sampling`` is resolved (:func:`atmoscatter.plan`
+    turns ``"auto"`` into ``"rgb"`` or ``"spectral"`` first; ``"auto"`` here means rgb)."""
     if scene.sampling == "spectral" or scene.output == "spectral":
         step = scene.wavelength_step
         n = int(math.floor((780.0 - 380.0) / step + 1e-9)) + 1
@@ -500,7 +502,8 @@ def _make_physical_prepare(function_name):
             rgb_sampled = wl.size <= 3
         else:
             atm = _build_atmosphere(scene, wl)
-            rgb_sampled = not (scene.sampling == "spectral" or scene.output == "spectral")
+            # the plan resolves sampling="auto"; plans without it (old EXR headers): by count
+            rgb_sampled = plan.sampling == "rgb" if getattr(plan, "sampling", "") else wl.size <= 3
         sun = plan.sun_direction
         kwargs = {"altitude": scene.altitude}
         if function_name == "multiple_scattering":
