@@ -399,6 +399,7 @@ def main(argv=None):
     else:
         outdir = args.out or os.path.join(ROOT, "docs", "convergence")
         json_path = os.path.join(ROOT, "atmoscatter", "data", "spectral_sampling.json")
+    os.makedirs(outdir, exist_ok=True)
     csv_path = os.path.join(outdir, "spectral_sampling.csv")
     md_path = os.path.join(outdir, "spectral_sampling.md")
     refcheck = None
