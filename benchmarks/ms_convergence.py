@@ -184,7 +184,7 @@ def configs(knobs, default):
                 yield knob, val, (replace(grid0, **{knob: int(val)}), tol0)
 
 
-def study(scenes, knobs, default, reference, sweep_atms, progress=print):
+def study(scenes, knobs, default, reference, sweep_atms, progress=print, on_atmosphere=None):
     by_atm = {}
     for s in scenes:
         by_atm.setdefault(SCENES[s][0], []).append(s)
@@ -216,6 +216,8 @@ def study(scenes, knobs, default, reference, sweep_atms, progress=print):
                     "atmosphere": akey, "scene": n, "build_s": round(build, 3),
                     "eval_s": round(evals[n], 4), "max_rel_total": e_tot, "max_rel_ms": e_ms,
                 })
+        if on_atmosphere is not None:  # write what is done so far (a long run may be cut)
+            on_atmosphere(records, refinfo)
     return records, refinfo
 
 
@@ -390,7 +392,21 @@ def main(argv=None) -> int:
     machine = (f"{os.cpu_count()} CPUs (shared with other jobs, so times are noisy), "
                f"{ms._THREADS} threads")
     t0 = time.perf_counter()
-    records, refinfo = study(scenes, knobs, default, reference, sweep)
+    state = {}
+
+    def write(records, refinfo):
+        state["paths"], state["table"] = write_outputs(
+            records, refinfo, scenes, default, reference, machine, out, sweep,
+            official=not (args.quick or args.out or args.scenes), quick=args.quick)
+
+    study(scenes, knobs, default, reference, sweep, on_atmosphere=write)
+    print(f"wrote {', '.join(str(p) for p in state['paths'])} in {time.perf_counter() - t0:.1f} s")
+    print(state["table"])
+    return 0
+
+
+def write_outputs(records, refinfo, scenes, default, reference, machine, out, sweep, official, quick):
+    done = [s for s in scenes if any(r["scene"] == s for r in records)]
     out.mkdir(parents=True, exist_ok=True)
     fields = list(records[0])
     with open(out / "ms_convergence.csv.tmp", "w", newline="", encoding="utf-8") as f:
@@ -398,14 +414,14 @@ def main(argv=None) -> int:
         w.writeheader()
         w.writerows(records)
     os.replace(out / "ms_convergence.csv.tmp", out / "ms_convergence.csv")
-    table = table_markdown(records, refinfo, scenes, default, reference, machine)
+    table = table_markdown(records, refinfo, done, default, reference, machine)
     _atomic_write(out / "ms_convergence_table.md", table)
-    sweep_atm = next(a for a in dict.fromkeys(SCENES[s][0] for s in scenes) if a in sweep)
+    sweep_atm = next(a for a in dict.fromkeys(SCENES[s][0] for s in done) if a in sweep)
     plot(records, out / "ms_convergence.png", sweep_atm)
     js = accuracy_json(records, default, reference, machine)
-    js["command"] = "PYTHONPATH=. python benchmarks/ms_convergence.py" + (" --quick" if args.quick else "")
+    js["command"] = "PYTHONPATH=. python benchmarks/ms_convergence.py" + (" --quick" if quick else "")
     written = [out / n for n in ("ms_convergence.csv", "ms_convergence_table.md", "ms_convergence.png")]
-    if args.quick or args.out or args.scenes:
+    if not official:
         _atomic_write(out / "ms_accuracy.json", json.dumps(js, indent=1) + "\n")
         written.append(out / "ms_accuracy.json")
     else:
@@ -413,9 +429,7 @@ def main(argv=None) -> int:
         written.append(ROOT / "atmoscatter" / "data" / "ms_accuracy.json")
         if splice_docs(ROOT / "docs" / "convergence.md", table, js):
             written.append(ROOT / "docs" / "convergence.md")
-    print(f"wrote {', '.join(str(p) for p in written)} in {time.perf_counter() - t0:.1f} s")
-    print(table)
-    return 0
+    return written, table
 
 
 if __name__ == "__main__":
