@@ -603,7 +603,7 @@ def _ms_regimes(scene) -> tuple[str, str]:
     """(sun regime, observer regime) keys of :func:`ms_accuracy` for a scene."""
     from .scene import GROUND_OBSERVER_ALTITUDE  # noqa: PLC0415
 
-    e = 90.0 - math.degrees(scene.sun_angles()[0])
+    e = round(90.0 - math.degrees(scene.sun_angles()[0]), 9)  # -6° given is -6°
     sun = ("above_10" if e > 10.0 else "0_to_10" if e > 0.0 else "0_to_-6" if e >= -6.0
            else "-6_to_-12" if e >= -12.0 else "below_-12")
     if scene.altitude < GROUND_OBSERVER_ALTITUDE:

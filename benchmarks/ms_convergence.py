@@ -314,33 +314,45 @@ def accuracy_json(records, default, reference, machine):
 
 
 def plot(records, path, sweep_atm):
+    """Worst error against build time, one curve per knob, in separate panels for the sun
+    up (total, MS part), twilight and the space observer's limb, so that the larger
+    errors of the hard scenes do not hide the rest."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(1, 2, figsize=(11, 4.5), sharex=True)
     rows = [r for r in records if r["atmosphere"] == sweep_atm]
-    for knob in dict.fromkeys(r["knob"] for r in rows):
-        vals = list(dict.fromkeys(r["value"] for r in rows if r["knob"] == knob))
-        t, e1, e2 = [], [], []
-        for v in vals:
-            sel = [r for r in rows if r["knob"] == knob and r["value"] == v]
-            t.append(sel[0]["build_s"])
-            e1.append(max(r["max_rel_total"] for r in sel))
-            e2.append(max(r["max_rel_ms"] for r in sel))
-        for ax, e in zip(axes, (e1, e2), strict=True):
+    inside = [r for r in rows if SCENES[r["scene"]][2] < 100e3]
+    day = [r for r in inside if SCENES[r["scene"]][1] > 0]
+    night = [r for r in inside if SCENES[r["scene"]][1] <= 0]
+    limb = [r for r in rows if SCENES[r["scene"]][2] >= 100e3]
+    panels = [(day, "max_rel_total", "sun up (ground, 12 km): total"),
+              (day, "max_rel_ms", "sun up (ground, 12 km): MS part"),
+              (night, "max_rel_total", "twilight (sun at or below 0°): total"),
+              (limb, "max_rel_total", "space observer, limb: total")]
+    panels = [p for p in panels if p[0]]
+    fig, axes = plt.subplots(1, len(panels), figsize=(4.6 * len(panels), 4.4), squeeze=False)
+    axes = axes[0]
+    for ax, (sel_rows, k, title) in zip(axes, panels, strict=True):
+        for knob in dict.fromkeys(r["knob"] for r in sel_rows):
+            vals = list(dict.fromkeys(r["value"] for r in sel_rows if r["knob"] == knob))
+            t, e = [], []
+            for v in vals:
+                sel = [r for r in sel_rows if r["knob"] == knob and r["value"] == v]
+                t.append(float(sel[0]["build_s"]))
+                e.append(max(float(r[k]) for r in sel))
             ax.loglog(t, e, "o-", label=knob)
             for ti, ei, v in zip(t, e, vals, strict=True):
-                ax.annotate(f"{v:g}", (ti, ei), fontsize=7, xytext=(3, 3), textcoords="offset points")
-    d = [r for r in rows if r["is_default"]]
-    for ax, k, title in zip(axes, ("max_rel_total", "max_rel_ms"),
-                            ("total radiance", "multiple-scattering part"), strict=True):
+                ax.annotate(f"{float(v):g}", (ti, ei), fontsize=7, xytext=(3, 3),
+                            textcoords="offset points")
+        d = [r for r in sel_rows if r["is_default"] in (True, "True")]
         if d:
-            ax.loglog([d[0]["build_s"]], [max(r[k] for r in d)], "k*", ms=14, label="default")
+            ax.loglog([float(d[0]["build_s"])], [max(float(r[k]) for r in d)], "k*", ms=14,
+                      label="default", zorder=5)
         ax.set_xlabel("field build time (first call) [s]")
-        ax.set_ylabel("worst max relative error over the scenes")
-        ax.set_title(f"{sweep_atm}: {title}")
+        ax.set_ylabel("worst max relative error")
+        ax.set_title(f"{sweep_atm}: {title}", fontsize=9)
         ax.grid(True, which="both", alpha=0.3)
     axes[0].legend(fontsize=8)
     fig.tight_layout()
@@ -348,6 +360,13 @@ def plot(records, path, sweep_atm):
     fig.savefig(tmp, dpi=110)
     plt.close(fig)
     os.replace(tmp, path)
+
+
+def replot(out: Path):
+    """Redraw the PNG from an existing ``ms_convergence.csv``."""
+    with open(out / "ms_convergence.csv", newline="", encoding="utf-8") as f:
+        records = list(csv.DictReader(f))
+    plot(records, out / "ms_convergence.png", SWEEP_ATMOSPHERES[0])
 
 
 BEGIN, END = "<!-- ms_convergence:begin (generated) -->", "<!-- ms_convergence:end -->"
@@ -379,7 +398,11 @@ def main(argv=None) -> int:
     ap.add_argument("--scenes", nargs="*", default=None, choices=sorted(SCENES))
     ap.add_argument("--sweep-all", action="store_true",
                     help="one-knob sweep for every atmosphere (default: earth_t2.5 only)")
+    ap.add_argument("--replot", action="store_true", help="only redraw the PNG from the CSV")
     args = ap.parse_args(argv)
+    if args.replot:
+        replot(Path(args.out or ROOT / "docs" / "convergence"))
+        return 0
     if args.quick:
         scenes = args.scenes or ["clear_noon", "civil_twilight"]
         knobs, default, reference = QUICK_KNOBS, QUICK_DEFAULT, QUICK_REFERENCE

@@ -1,0 +1,111 @@
+"""The measured multiple-scattering accuracy and its statement in the EXR header.
+
+``atmoscatter/data/ms_accuracy.json`` is written by ``benchmarks/ms_convergence.py``
+(full run: the default grid against a refined grid, see ``docs/convergence.md``).  Its
+numbers are not recomputed here (a field build takes tens of seconds); these tests hold
+that the file exists, parses, covers every regime the renderer distinguishes, is
+internally consistent, and that the header quotes the figures of the scene's regime.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from importlib import resources
+
+import numpy as np
+import pytest
+
+import atmoscatter as ac
+from atmoscatter.models import _pct, ms_accuracy, physical_adapter, register_model, unregister_model
+from atmoscatter.render import _error_estimate
+from atmoscatter.scene import Scene, plan
+
+SUN_REGIMES = ("above_10", "0_to_10", "0_to_-6", "-6_to_-12", "below_-12")
+OBSERVER_REGIMES = ("ground", "elevated", "space")
+
+
+def _load():
+    text = resources.files("atmoscatter").joinpath("data/ms_accuracy.json").read_text("utf-8")
+    return json.loads(text)
+
+
+def test_file_exists_parses_and_covers_every_regime():
+    acc = _load()
+    assert set(acc["sun_regimes_ground_observer"]) == set(SUN_REGIMES)
+    assert set(acc["observer_regimes"]) == set(OBSERVER_REGIMES)
+    for group in ("sun_regimes_ground_observer", "observer_regimes"):
+        for key, r in acc[group].items():
+            tot, part = r["max_rel_total"], r["max_rel_ms"]
+            assert math.isfinite(tot) and math.isfinite(part) and tot >= 0.0, key
+            # the error is the same absolute difference divided by the total or by the
+            # (smaller) multiple-scattering part: the MS figure can never be the smaller
+            assert part >= tot * (1 - 1e-12), key
+            assert r["scenes"] and r["worst_scene"] in r["scenes"], key
+    # every ground scene's figure enters the ground observer's worst case
+    ground = acc["observer_regimes"]["ground"]
+    worst_sun = max(r["max_rel_total"] for r in acc["sun_regimes_ground_observer"].values())
+    assert ground["max_rel_total"] == pytest.approx(worst_sun, rel=1e-12)
+
+
+def _ms_scene(**kw):
+    kw = {"model": "multiple_scattering", "sun_elevation_deg": -8.0, "sun_azimuth_deg": 180.0,
+          "width": 8, "height": 4, **kw}
+    return Scene(**kw)
+
+
+def _header_text(s):
+    adapter = physical_adapter("multiple_scattering")
+    return _error_estimate(adapter, plan(s), s)
+
+
+@pytest.mark.parametrize(("elevation", "regime"), [
+    (-8.0, "-6_to_-12"), (-6.0, "0_to_-6"), (-3.0, "0_to_-6"), (5.0, "0_to_10"),
+    (45.0, "above_10"), (-20.0, "below_-12"),
+])
+def test_ground_scene_quotes_its_sun_regime(elevation, regime):
+    r = ms_accuracy()["sun_regimes_ground_observer"][regime]
+    text = _header_text(_ms_scene(sun_elevation_deg=elevation))
+    assert f"max {_pct(r['max_rel_total'])} of total" in text
+    assert f"({_pct(r['max_rel_ms'])} of the MS part)" in text
+    assert r["description"] in text and "docs/convergence.md" in text
+
+
+@pytest.mark.parametrize(("altitude", "regime"), [(12e3, "elevated"), (500e3, "space")])
+def test_elevated_and_space_observers_quote_their_regime(altitude, regime):
+    r = ms_accuracy()["observer_regimes"][regime]
+    text = _header_text(_ms_scene(sun_elevation_deg=20.0, altitude=altitude))
+    assert f"max {_pct(r['max_rel_total'])} of total" in text and r["description"] in text
+
+
+def test_fixed_orders_and_bright_ground_are_flagged():
+    text = _header_text(_ms_scene(orders=4, ground_albedo=0.3))
+    assert "orders=4" in text and "black ground" in text
+    assert "orders=" not in _header_text(_ms_scene())
+
+
+def test_header_of_a_render_names_the_twilight_figures(monkeypatch):
+    """End to end through :func:`atmoscatter.render` (a fake field: only the header counts)."""
+    previous = ac.MODELS.get("multiple_scattering")
+
+    def fake(atmosphere, view_directions, sun_direction, **kw):
+        wl = atmosphere.wavelengths_array
+        return np.full(np.shape(view_directions)[:-1] + (wl.size,), 1e-3)
+
+    monkeypatch.setattr(ac, "multiple_scattering", fake, raising=False)
+    register_model(physical_adapter("multiple_scattering"), replace=True)
+    try:
+        img = ac.render(_ms_scene(sun_elevation_deg=-9.0))
+    finally:
+        unregister_model("multiple_scattering")
+        if previous is not None:
+            register_model(previous)
+    r = ms_accuracy()["sun_regimes_ground_observer"]["-6_to_-12"]
+    md = img.metadata["atmoscatter:error_estimate"]
+    assert f"max {_pct(r['max_rel_total'])} of total ({_pct(r['max_rel_ms'])} of the MS part)" in md
+
+
+def test_string_error_estimates_still_work():
+    adapter = physical_adapter("single_scattering")
+    s = _ms_scene(model="single_scattering")
+    assert _error_estimate(adapter, plan(s), s).startswith(adapter.error_estimate)
