@@ -109,3 +109,44 @@ def test_string_error_estimates_still_work():
     adapter = physical_adapter("single_scattering")
     s = _ms_scene(model="single_scattering")
     assert _error_estimate(adapter, plan(s), s).startswith(adapter.error_estimate)
+
+
+def test_ms_convergence_quick_smoke(tmp_path, monkeypatch):
+    """``benchmarks/ms_convergence.py --quick`` (tiny grids, two scenes, a few seconds)
+    writes its files; a grid compared with itself must give error 0 (self-check of the
+    error measure: same field, same directions)."""
+    import csv
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    env = {**os.environ, "PYTHONPATH": str(root)}
+    subprocess.run([sys.executable, str(root / "benchmarks" / "ms_convergence.py"), "--quick",
+                    "--out", str(tmp_path)], check=True, env=env, capture_output=True, timeout=300)
+    for name in ("ms_convergence.csv", "ms_convergence_table.md", "ms_convergence.png",
+                 "ms_accuracy.json"):
+        assert (tmp_path / name).stat().st_size > 0, name
+    with open(tmp_path / "ms_convergence.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
+    assert {r["scene"] for r in rows} == {"clear_noon", "civil_twilight"}
+    assert all(float(r["build_s"]) > 0 and float(r["max_rel_total"]) >= 0 for r in rows)
+    js = json.loads((tmp_path / "ms_accuracy.json").read_text())
+    assert set(js["sun_regimes_ground_observer"]) == {"above_10", "0_to_-6"}
+
+    # the script turns the persistent cache off at import: undo that after the test
+    monkeypatch.setenv("ATMOSCATTER_CACHE_DIR", os.environ.get("ATMOSCATTER_CACHE_DIR", "off"))
+    sys.path.insert(0, str(root / "benchmarks"))
+    try:
+        import ms_convergence as mc
+    finally:
+        sys.path.pop(0)
+    ref = np.array([[1.0, 2.0], [1e-9, 3.0]])
+    single = np.array([[0.5, 1.0], [0.0, 1.0]])
+    assert mc.errors(ref, ref, single) == (0.0, 0.0)
+    # 1 % off in one bright direction: 1 % of the total, 2 % of the MS part (0.5)
+    e_tot, e_ms = mc.errors(ref * np.array([[1.01, 1.0], [1.0, 1.0]]), ref, single)
+    assert e_tot == pytest.approx(0.01) and e_ms == pytest.approx(0.02)
+    # directions below 1e-6 of the maximum are ignored, however wrong
+    assert mc.errors(ref * np.array([[1.0, 1.0], [5.0, 1.0]]), ref, single) == (0.0, 0.0)
