@@ -616,6 +616,19 @@ def _ms_regimes(scene) -> tuple[str, str]:
     return sun, "elevated" if scene.altitude < top else "space"
 
 
+def _ms_accuracy_current(acc: dict) -> bool:
+    """The measurement is of the installed method (field version) and default grid."""
+    import dataclasses  # noqa: PLC0415
+    import inspect  # noqa: PLC0415
+
+    from .sky import multiple  # noqa: PLC0415
+
+    tol = inspect.signature(multiple.multiple_scattering).parameters["order_tolerance"].default
+    grid = {**dataclasses.asdict(multiple.MULTIPLE_SCATTERING_GRID), "order_tolerance": tol}
+    return (acc.get("field_version") == multiple._FIELD_VERSION
+            and acc.get("default_grid_fields") == grid)
+
+
 def _pct(x: float) -> str:
     return f"{100.0 * float(x):.2g} %"
 
@@ -637,6 +650,9 @@ def _ms_error_estimate(scene) -> str:
     text = (f"multiple scattering, default grid: max {_pct(r['max_rel_total'])} of total "
             f"({_pct(r['max_rel_ms'])} of the MS part) for {where}, measured against a "
             "refined grid (docs/convergence.md)")
+    if not _ms_accuracy_current(acc):
+        text += ("; CAUTION: measured for another version of the method or default grid "
+                 "(rerun benchmarks/ms_convergence.py)")
     if scene.orders is not None:
         text += (f"; measured with automatic orders, this scene fixes orders={scene.orders} "
                  "(fewer orders are biased low)")

@@ -48,6 +48,16 @@ def test_file_exists_parses_and_covers_every_regime():
     assert ground["max_rel_total"] == pytest.approx(worst_sun, rel=1e-12)
 
 
+def test_measurement_is_of_the_installed_method():
+    """Fails when the method or its default grid changed since the study was run (the
+    header would then flag its figures): rerun ``benchmarks/ms_convergence.py``."""
+    from atmoscatter.models import _ms_accuracy_current
+
+    assert _ms_accuracy_current(_load())
+    assert "CAUTION" not in _header_text(_ms_scene())
+    assert not _ms_accuracy_current({**_load(), "field_version": -1})
+
+
 def _ms_scene(**kw):
     kw = {"model": "multiple_scattering", "sun_elevation_deg": -8.0, "sun_azimuth_deg": 180.0,
           "width": 8, "height": 4, **kw}
