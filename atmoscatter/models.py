@@ -110,8 +110,9 @@ class ModelAdapter:
         pairs pays off).
     wavelengths : callable
         ``wavelengths(scene) -> tuple`` [nm] evaluated by a spectral model.
-    error_estimate : str
-        Stated accuracy of the model (recorded in the EXR header).
+    error_estimate : str or callable
+        Stated accuracy of the model (recorded in the EXR header), or
+        ``error_estimate(scene) -> str`` when it depends on the scene (sun, observer).
     turbidity_range : tuple of float, optional
         Turbidity range of a fitted model (outside it the model clamps and warns).
     accepts_atmosphere : bool
@@ -127,7 +128,7 @@ class ModelAdapter:
     horizontally_uniform: bool = True
     cost_per_direction: float = 2e-7
     wavelengths: Callable = field(default=lambda scene: ())
-    error_estimate: str = "not stated"
+    error_estimate: str | Callable = "not stated"
     turbidity_range: tuple | None = None
     accepts_atmosphere: bool = False
 
@@ -583,6 +584,86 @@ _HOFFMAN_PREETHAM = ModelAdapter(
 )
 
 
+_MS_ACCURACY: dict = {}
+
+
+def ms_accuracy() -> dict:
+    """Measured default-grid errors of ``multiple_scattering`` per regime.
+
+    Read (once, lazily) from ``atmoscatter/data/ms_accuracy.json``, written by
+    ``benchmarks/ms_convergence.py`` (full run; see ``docs/convergence.md``).
+    """
+    if not _MS_ACCURACY:
+        import json  # noqa: PLC0415
+        from importlib import resources  # noqa: PLC0415
+
+        text = resources.files("atmoscatter").joinpath("data/ms_accuracy.json").read_text("utf-8")
+        _MS_ACCURACY.update(json.loads(text))
+    return _MS_ACCURACY
+
+
+def _ms_regimes(scene) -> tuple[str, str]:
+    """(sun regime, observer regime) keys of :func:`ms_accuracy` for a scene."""
+    from .scene import GROUND_OBSERVER_ALTITUDE  # noqa: PLC0415
+
+    e = round(90.0 - math.degrees(scene.sun_angles()[0]), 9)  # -6° given is -6°
+    sun = ("above_10" if e > 10.0 else "0_to_10" if e > 0.0 else "0_to_-6" if e >= -6.0
+           else "-6_to_-12" if e >= -12.0 else "below_-12")
+    if scene.altitude < GROUND_OBSERVER_ALTITUDE:
+        return sun, "ground"
+    try:
+        atm = _build_atmosphere(scene, (550.0,))
+        top = atm.top_radius - atm.planet_radius
+    except Exception:  # noqa: BLE001 - a custom atmosphere file: Earth's 60 km top
+        top = 60e3
+    return sun, "elevated" if scene.altitude < top else "space"
+
+
+def _ms_accuracy_current(acc: dict) -> bool:
+    """The measurement is of the installed method (field version) and default grid."""
+    import dataclasses  # noqa: PLC0415
+    import inspect  # noqa: PLC0415
+
+    from .sky import multiple  # noqa: PLC0415
+
+    tol = inspect.signature(multiple.multiple_scattering).parameters["order_tolerance"].default
+    grid = {**dataclasses.asdict(multiple.MULTIPLE_SCATTERING_GRID), "order_tolerance": tol}
+    return (acc.get("field_version") == multiple._FIELD_VERSION
+            and acc.get("default_grid_fields") == grid)
+
+
+def _pct(x: float) -> str:
+    return f"{100.0 * float(x):.2g} %"
+
+
+def _ms_error_estimate(scene) -> str:
+    """The measured default-grid error of ``multiple_scattering`` for the scene's regime."""
+    try:
+        acc = ms_accuracy()
+        sun, obs = _ms_regimes(scene)
+        if obs == "ground":
+            r = acc["sun_regimes_ground_observer"][sun]
+            where = r["description"]
+        else:
+            r = acc["observer_regimes"][obs]
+            sun_deg = ", ".join(f"{e:g}°" for e in r["sun_elevations_deg"])
+            where = f"an {r['description']} (measured with the sun at {sun_deg})"
+    except (OSError, KeyError, ValueError):
+        return "multiple scattering on the default grid; measured accuracy not available"
+    text = (f"multiple scattering, default grid: max {_pct(r['max_rel_total'])} of total "
+            f"({_pct(r['max_rel_ms'])} of the MS part) for {where}, measured against a "
+            "refined grid (docs/convergence.md)")
+    if not _ms_accuracy_current(acc):
+        text += ("; CAUTION: measured for another version of the method or default grid "
+                 "(rerun benchmarks/ms_convergence.py)")
+    if scene.orders is not None:
+        text += (f"; measured with automatic orders, this scene fixes orders={scene.orders} "
+                 "(fewer orders are biased low)")
+    if scene.ground_albedo > 0:
+        text += "; measured with a black ground"
+    return text
+
+
 def physical_adapter(function_name: str) -> ModelAdapter:
     """Adapter of ``single_scattering`` or ``multiple_scattering`` (see module notes)."""
     if function_name == "single_scattering":
@@ -591,7 +672,7 @@ def physical_adapter(function_name: str) -> ModelAdapter:
         cost = 3e-5
     elif function_name == "multiple_scattering":
         desc = "numerical multiple scattering (seed 004 orders of scattering)"
-        err = "stated by atmoscatter.multiple_scattering for the chosen orders"
+        err = _ms_error_estimate  # measured per regime (ms_accuracy.json)
         cost = 1e-4
     else:
         raise ValueError(

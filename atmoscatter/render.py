@@ -360,8 +360,10 @@ def render_batches(scene: Scene, *, batch_size: int | None = None, plan: Plan | 
         yield start, stop, ctx.batch(start, stop)
 
 
-def _error_estimate(adapter, plan) -> str:
+def _error_estimate(adapter, plan, scene=None) -> str:
     text = adapter.error_estimate
+    if callable(text):  # depends on the scene (e.g. measured per sun/observer regime)
+        text = str(text(scene))
     if adapter.spectral and 0 < len(plan.wavelengths) <= 3:
         text += ("; colour from 3 wavelengths expanded as a power law (measured on a clear "
                  "sky: Y within 1.2 %, X and Z within 5 % of a 1 nm spectrum)")
@@ -375,7 +377,7 @@ def _metadata(scene, plan, dset, adapter):
         "atmoscatter:version": __version__,
         "atmoscatter:model": scene.model,
         "atmoscatter:model_description": adapter.description,
-        "atmoscatter:error_estimate": _error_estimate(adapter, plan),
+        "atmoscatter:error_estimate": _error_estimate(adapter, plan, scene),
         "atmoscatter:plan": plan.to_json(),
         "atmoscatter:projection": dset.kind,
         "atmoscatter:units": "cd m-2 (linear RGB and XYZ), W m-2 sr-1 nm-1 (spectral)",

@@ -1,0 +1,473 @@
+"""Error against run time of multiple scattering (issue 10, part 4).
+
+Usage (from the repository root)::
+
+    PYTHONPATH=. python benchmarks/ms_convergence.py            # full study -> docs/convergence/
+    PYTHONPATH=. python benchmarks/ms_convergence.py --quick    # smoke run (tiny grids) -> a temp dir
+
+For canonical scenes, :func:`atmoscatter.multiple_scattering` on its default grid
+(:data:`~atmoscatter.sky.multiple.MULTIPLE_SCATTERING_GRID`) and on grids that vary one
+knob at a time is compared with the *same method on a much finer grid* (the reference;
+its independence from our code is established by the DISORT and Monte Carlo tests,
+``tests/test_rt_benchmarks.py`` and ``tests/test_montecarlo.py``, whose tables
+``scripts/ms_reference_check.py`` prints).
+
+The radiance field depends only on (atmosphere, grid, ground albedo, orders/tolerance),
+not on the sun or the observer, so each field is built once per atmosphere and grid and
+every scene of that atmosphere is evaluated from it.  The on-disk cache is disabled
+(``ATMOSCATTER_CACHE_DIR=off``) and the in-process caches are cleared before every
+build, so the build time is that of a first call.
+
+Writes ``ms_convergence.csv``, ``ms_convergence_table.md`` and ``ms_convergence.png``; the
+full run also writes ``atmoscatter/data/ms_accuracy.json`` (worst default-grid errors per
+sun / observer regime, read by the renderer for the EXR header) and replaces the
+generated block of ``docs/convergence.md``.  The full run takes about 20-25 minutes on a
+shared 2-core machine; ``--quick`` (tiny grids, two scenes) well under a minute.
+"""
+
+from __future__ import annotations
+
+import os
+
+os.environ["ATMOSCATTER_CACHE_DIR"] = "off"  # honest timings: no persistent cache
+
+import argparse  # noqa: E402
+import csv  # noqa: E402
+import json  # noqa: E402
+import sys  # noqa: E402
+import tempfile  # noqa: E402
+import time  # noqa: E402
+from dataclasses import asdict, replace  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+import atmoscatter  # noqa: E402
+from atmoscatter import earth_turbidity_atmosphere, mars_atmosphere  # noqa: E402
+from atmoscatter.sky import multiple as ms  # noqa: E402
+from atmoscatter.sky.multiple import MultipleScatteringGrid  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+
+ATMOSPHERES = {
+    "earth_t2.5": lambda: earth_turbidity_atmosphere(2.5),
+    "earth_t6": lambda: earth_turbidity_atmosphere(6.0),
+    "mars": lambda: mars_atmosphere(),
+}
+
+_GROUND_ZENITH = (0, 15, 30, 45, 60, 70, 78, 84, 87, 88.5, 89.3, 89.8)
+_ELEVATED_ZENITH = (0, 20, 40, 60, 75, 85, 89, 91, 93, 95, 100, 120)
+# from 500 km: the top of the atmosphere (60 km) is tangent at zenith 110.7°, the
+# ground at 112.0°; rays from 110.8° to 111.9° cross the limb, beyond hit the planet
+_LIMB_ZENITH = (110.8, 110.9, 111.0, 111.1, 111.2, 111.35, 111.5, 111.65, 111.8, 111.9,
+                112.1, 112.5)
+AZIMUTHS = (0, 36, 72, 108, 144, 180)  # [deg] from the solar vertical (symmetric sky)
+
+#: scene -> (atmosphere, sun elevation [deg], observer altitude [m], view zenith angles [deg])
+SCENES = {
+    "clear_noon": ("earth_t2.5", 60.0, 0.0, _GROUND_ZENITH),
+    "hazy_t6": ("earth_t6", 45.0, 0.0, _GROUND_ZENITH),
+    "sunset": ("earth_t2.5", 2.0, 0.0, _GROUND_ZENITH),
+    "civil_twilight": ("earth_t2.5", -6.0, 0.0, _GROUND_ZENITH),
+    "nautical_twilight": ("earth_t2.5", -10.0, 0.0, _GROUND_ZENITH),
+    "deep_twilight": ("earth_t2.5", -15.0, 0.0, _GROUND_ZENITH),
+    "observer_12km": ("earth_t2.5", 30.0, 12e3, _ELEVATED_ZENITH),
+    "space_limb": ("earth_t2.5", 10.0, 500e3, _LIMB_ZENITH),
+    "mars": ("mars", 30.0, 0.0, _GROUND_ZENITH),
+}
+
+DEFAULT = (ms.MULTIPLE_SCATTERING_GRID, 1e-3)
+REFERENCE = (MultipleScatteringGrid(n_altitude=24, n_sun=64, n_mu=24, n_phi=13, order=4), 1e-5)
+KNOBS = {
+    "n_sun": (12, 20, 32, 48, 64),
+    "n_mu": (8, 12, 16, 24),
+    "n_phi": (5, 9, 13),
+    "n_altitude": (8, 12, 16, 24),
+    "order": (2, 3, 4),
+    "order_tolerance": (1e-2, 1e-3, 1e-4),
+}
+#: atmospheres of the one-knob sweep in the full run (the others: default grid only)
+SWEEP_ATMOSPHERES = ("earth_t2.5",)
+
+QUICK_DEFAULT = (MultipleScatteringGrid(n_altitude=4, n_sun=6, n_mu=4, n_phi=3, order=2), 1e-2)
+QUICK_REFERENCE = (MultipleScatteringGrid(n_altitude=6, n_sun=10, n_mu=6, n_phi=5, order=2), 1e-3)
+QUICK_KNOBS = {"n_sun": (4, 6), "n_mu": (4, 6)}
+
+FLOOR = 1e-6  # directions whose total is below FLOOR x the scene maximum are ignored
+
+#: regimes of the EXR header's statement (sun elevation [deg]; observer)
+SUN_REGIMES = {
+    "above_10": "sun more than 10° above the horizon",
+    "0_to_10": "sun 0–10° above the horizon",
+    "0_to_-6": "sun 0–6° below the horizon",
+    "-6_to_-12": "sun 6–12° below the horizon",
+    "below_-12": "sun more than 12° below the horizon",
+}
+OBSERVER_REGIMES = {
+    "ground": "observer on the ground",
+    "elevated": "observer inside the atmosphere above the ground",
+    "space": "observer above the atmosphere",
+}
+
+
+def sun_regime(elevation_deg: float) -> str:
+    """Sun regime of an elevation [deg] (boundaries belong to the regime nearer 0°)."""
+    e = float(elevation_deg)
+    if e > 10.0:
+        return "above_10"
+    if e > 0.0:
+        return "0_to_10"
+    if e >= -6.0:
+        return "0_to_-6"
+    if e >= -12.0:
+        return "-6_to_-12"
+    return "below_-12"
+
+
+def observer_regime(altitude_m: float, top_altitude_m: float) -> str:
+    """Observer regime: ground (< 1 m), elevated (below the top), space."""
+    if altitude_m < 1.0:
+        return "ground"
+    return "elevated" if altitude_m < top_altitude_m else "space"
+
+
+def scene_geometry(name):
+    _, elev, alt, zeniths = SCENES[name]
+    e = np.radians(elev)
+    sun = np.array([0.0, np.cos(e), np.sin(e)])
+    th = np.radians(np.asarray(zeniths, float))[:, None]
+    ph = np.radians(np.asarray(AZIMUTHS, float))[None, :]
+    v = np.stack([np.sin(th) * np.sin(ph), np.sin(th) * np.cos(ph), np.cos(th) + 0 * ph], -1)
+    return v.reshape(-1, 3), sun, alt
+
+
+def clear_caches():
+    ms._CACHE.clear()
+    ms._RESULTS.clear()
+
+
+def evaluate(atm, scenes, config):
+    """Build the field of ``config`` (timed: first call) and evaluate every scene."""
+    grid, tol = config
+    clear_caches()
+    out, build, evals = {}, None, {}
+    for name in scenes:
+        v, sun, alt = scene_geometry(name)
+        t0 = time.perf_counter()
+        out[name] = ms.multiple_scattering(atm, v, sun, altitude=alt, grid=grid, order_tolerance=tol)
+        dt = time.perf_counter() - t0
+        if build is None:
+            build = dt  # the first call builds the field (and gathers 72 directions)
+        evals[name] = dt
+    clear_caches()
+    return out, build, evals
+
+
+def errors(total, ref, single):
+    """(max rel. error of the total, of the MS part) over directions above the floor."""
+    keep = ref >= FLOOR * np.max(ref, axis=0, keepdims=True)
+    ms_ref = ref - single
+    d = np.abs(total - ref)
+    e_tot = np.max(np.where(keep, d / np.where(keep, ref, 1.0), 0.0))
+    keep_ms = keep & (ms_ref > 0)
+    e_ms = np.max(np.where(keep_ms, d / np.where(keep_ms, ms_ref, 1.0), 0.0))
+    return float(e_tot), float(e_ms)
+
+
+def configs(knobs, default):
+    grid0, tol0 = default
+    for knob, values in knobs.items():
+        for val in values:
+            if knob == "order_tolerance":
+                yield knob, val, (grid0, float(val))
+            else:
+                yield knob, val, (replace(grid0, **{knob: int(val)}), tol0)
+
+
+def study(scenes, knobs, default, reference, sweep_atms, progress=print, on_atmosphere=None):
+    by_atm = {}
+    for s in scenes:
+        by_atm.setdefault(SCENES[s][0], []).append(s)
+    records, refinfo = [], {}
+    # warm-up: compile kernels / fill import-time tables outside any timed call
+    warm = ATMOSPHERES["mars"]()
+    v, sun, _ = scene_geometry("clear_noon")
+    ms.multiple_scattering(warm, v[:2], sun, grid=QUICK_DEFAULT[0], order_tolerance=1e-2)
+    for akey, names in by_atm.items():
+        atm = ATMOSPHERES[akey]()
+        single = {n: atmoscatter.single_scattering(atm, *scene_geometry(n)[:2],
+                                                   altitude=scene_geometry(n)[2])
+                  for n in names}
+        ref, t_ref, _ = evaluate(atm, names, reference)
+        refinfo[akey] = t_ref
+        progress(f"{akey}: reference built in {t_ref:.1f} s")
+        done = {}
+        todo = list(configs(knobs, default)) if akey in sweep_atms else [("default", "", default)]
+        for knob, val, cfg in todo:
+            key = (cfg[0], cfg[1])
+            if key not in done:
+                done[key] = evaluate(atm, names, cfg)
+                progress(f"{akey}: {knob}={val}: built in {done[key][1]:.1f} s")
+            out, build, evals = done[key]
+            for n in names:
+                e_tot, e_ms = errors(out[n], ref[n], single[n])
+                records.append({
+                    "knob": knob, "value": val, "is_default": cfg == default,
+                    "atmosphere": akey, "scene": n, "build_s": round(build, 3),
+                    "eval_s": round(evals[n], 4), "max_rel_total": e_tot, "max_rel_ms": e_ms,
+                })
+        if on_atmosphere is not None:  # write what is done so far (a long run may be cut)
+            on_atmosphere(records, refinfo)
+    return records, refinfo
+
+
+# ----------------------------------------------------------------------------------------
+# outputs
+# ----------------------------------------------------------------------------------------
+def _atomic_write(path: Path, text: str):
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name + ".", suffix=".tmp")
+    with os.fdopen(fd, "w", encoding="utf-8") as f:
+        f.write(text)
+    os.replace(tmp, path)
+
+
+def _fmt(x):
+    return f"{x:.1e}"
+
+
+def default_rows(records):
+    seen, rows = set(), []
+    for r in records:
+        if r["is_default"] and r["scene"] not in seen:
+            seen.add(r["scene"])
+            rows.append(r)
+    return rows
+
+
+def table_markdown(records, refinfo, scenes, default, reference, machine):
+    atms = list(dict.fromkeys(SCENES[s][0] for s in scenes))
+    lines = [
+        f"Max relative error (total / multiple-scattering part) against the reference grid "
+        f"{_grid_text(reference)}; directions whose total radiance is below {FLOOR:g} of the "
+        "scene maximum (per wavelength) ignored.  Build = first call with empty caches "
+        f"(builds the field, shared by all scenes of the atmosphere) [s]; {machine}.",
+        "",
+        "| knob | value | " + " | ".join(f"build {a} [s]" for a in atms) + " | "
+        + " | ".join(scenes) + " |",
+        "|---|---|" + "---:|" * len(atms) + "---|" * len(scenes),
+    ]
+    rows = {}
+    for r in records:
+        k = (r["knob"], str(r["value"]))
+        rows.setdefault(k, {"default": r["is_default"], "build": {}, "err": {}})
+        rows[k]["build"][r["atmosphere"]] = r["build_s"]
+        rows[k]["err"][r["scene"]] = (r["max_rel_total"], r["max_rel_ms"])
+    for (knob, val), row in rows.items():
+        b = " | ".join(f"{row['build'][a]:.1f}" if a in row["build"] else "—" for a in atms)
+        e = " | ".join(f"{_fmt(row['err'][s][0])} / {_fmt(row['err'][s][1])}" if s in row["err"]
+                       else "—" for s in scenes)
+        mark = "**" if row["default"] else ""
+        lines.append(f"| {knob} | {mark}{val}{mark} | {b} | {e} |")
+    lines += ["", "Reference build time [s]: " + ", ".join(
+        f"{a} {t:.0f}" for a, t in refinfo.items()) + "."]
+    return "\n".join(lines) + "\n"
+
+
+def _grid_text(cfg):
+    g, tol = cfg
+    return (f"n_altitude {g.n_altitude}, n_sun {g.n_sun}, n_mu {g.n_mu}, n_phi {g.n_phi}, "
+            f"order {g.order}, order_tolerance {tol:g}")
+
+
+def accuracy_json(records, default, reference, machine):
+    rows = default_rows(records)
+    top = {"earth_t2.5": 60e3, "earth_t6": 60e3, "mars": 100e3}
+
+    def worst(sel):
+        sel = list(sel)
+        i = int(np.argmax([r["max_rel_total"] for r in sel]))
+        return {"max_rel_total": max(r["max_rel_total"] for r in sel),
+                "max_rel_ms": max(r["max_rel_ms"] for r in sel),
+                "scenes": [r["scene"] for r in sel], "worst_scene": sel[i]["scene"]}
+
+    obs = {r["scene"]: observer_regime(SCENES[r["scene"]][2], top[r["atmosphere"]]) for r in rows}
+    sun_reg = {}
+    for key in SUN_REGIMES:  # ground observers
+        sel = [r for r in rows if obs[r["scene"]] == "ground" and sun_regime(SCENES[r["scene"]][1]) == key]
+        if sel:
+            sun_reg[key] = {"description": SUN_REGIMES[key], **worst(sel)}
+    obs_reg = {}
+    for key in OBSERVER_REGIMES:
+        sel = [r for r in rows if obs[r["scene"]] == key]
+        if sel:
+            obs_reg[key] = {"description": OBSERVER_REGIMES[key],
+                            "sun_elevations_deg": [SCENES[r["scene"]][1] for r in sel], **worst(sel)}
+    return {
+        "what": "worst max relative error of atmoscatter.multiple_scattering on its default grid "
+                "(orders=None, ground_albedo 0) against the same method on a refined grid, "
+                "per regime; generated by benchmarks/ms_convergence.py (docs/convergence.md)",
+        "default_grid": _grid_text(default), "reference_grid": _grid_text(reference),
+        # what the renderer checks before quoting the figures (stale after a method change)
+        "field_version": ms._FIELD_VERSION,
+        "default_grid_fields": {**asdict(default[0]), "order_tolerance": default[1]},
+        "floor": FLOOR, "machine": machine,
+        "sun_regimes_ground_observer": sun_reg, "observer_regimes": obs_reg,
+    }
+
+
+def plot(records, path, sweep_atm):
+    """Worst error against build time, one curve per knob, in separate panels for the sun
+    up (total, MS part), twilight and the space observer's limb, so that the larger
+    errors of the hard scenes do not hide the rest."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    rows = [r for r in records if r["atmosphere"] == sweep_atm]
+    inside = [r for r in rows if SCENES[r["scene"]][2] < 100e3]
+    day = [r for r in inside if SCENES[r["scene"]][1] > 0]
+    night = [r for r in inside if SCENES[r["scene"]][1] <= 0]
+    limb = [r for r in rows if SCENES[r["scene"]][2] >= 100e3]
+    panels = [(day, "max_rel_total", "sun up (ground, 12 km): total"),
+              (day, "max_rel_ms", "sun up (ground, 12 km): MS part"),
+              (night, "max_rel_total", "twilight (sun at or below 0°): total"),
+              (limb, "max_rel_total", "space observer, limb: total")]
+    panels = [p for p in panels if p[0]]
+    fig, axes = plt.subplots(1, len(panels), figsize=(4.6 * len(panels), 4.4), squeeze=False)
+    axes = axes[0]
+    for ax, (sel_rows, k, title) in zip(axes, panels, strict=True):
+        for knob in dict.fromkeys(r["knob"] for r in sel_rows):
+            vals = list(dict.fromkeys(r["value"] for r in sel_rows if r["knob"] == knob))
+            t, e = [], []
+            for v in vals:
+                sel = [r for r in sel_rows if r["knob"] == knob and r["value"] == v]
+                t.append(float(sel[0]["build_s"]))
+                e.append(max(float(r[k]) for r in sel))
+            ax.loglog(t, e, "o-", label=knob)
+            for ti, ei, v in zip(t, e, vals, strict=True):
+                ax.annotate(f"{float(v):g}", (ti, ei), fontsize=7, xytext=(3, 3),
+                            textcoords="offset points")
+        d = [r for r in sel_rows if r["is_default"] in (True, "True")]
+        if d:
+            ax.loglog([float(d[0]["build_s"])], [max(float(r[k]) for r in d)], "k*", ms=14,
+                      label="default", zorder=5)
+        ax.set_xlabel("field build time (first call) [s]")
+        ax.set_ylabel("worst max relative error")
+        ax.set_title(f"{sweep_atm}: {title}", fontsize=9)
+        ax.grid(True, which="both", alpha=0.3)
+    axes[0].legend(fontsize=8)
+    fig.tight_layout()
+    tmp = path.with_name(path.stem + ".tmp.png")
+    fig.savefig(tmp, dpi=110)
+    plt.close(fig)
+    os.replace(tmp, path)
+
+
+def replot(out: Path, official: bool):
+    """Redraw the PNG (and, for the official run, ``ms_accuracy.json``) from an existing
+    ``ms_convergence.csv`` — with the code at hand, so only right for the same method."""
+    with open(out / "ms_convergence.csv", newline="", encoding="utf-8") as f:
+        records = list(csv.DictReader(f))
+    for r in records:
+        r["is_default"] = r["is_default"] == "True"
+        for k in ("build_s", "eval_s", "max_rel_total", "max_rel_ms"):
+            r[k] = float(r[k])
+    plot(records, out / "ms_convergence.png", SWEEP_ATMOSPHERES[0])
+    if official:
+        machine = (f"{os.cpu_count()} CPUs (shared with other jobs, so times are noisy), "
+                   f"{ms._THREADS} threads")
+        js = accuracy_json(records, DEFAULT, REFERENCE, machine)
+        js["command"] = "PYTHONPATH=. python benchmarks/ms_convergence.py"
+        _atomic_write(ROOT / "atmoscatter" / "data" / "ms_accuracy.json", json.dumps(js, indent=1) + "\n")
+
+
+BEGIN, END = "<!-- ms_convergence:begin (generated) -->", "<!-- ms_convergence:end -->"
+
+
+def splice_docs(doc: Path, table: str, js: dict):
+    """Replace the generated block of ``docs/convergence.md`` (between the markers)."""
+    text = doc.read_text(encoding="utf-8")
+    if BEGIN not in text or END not in text:
+        return False
+    summary = ["", "Default grid, worst over the scenes of each regime (the figures the EXR "
+               "header quotes, `atmoscatter/data/ms_accuracy.json`):", "",
+               "| regime | scenes | max rel. error, total | of the MS part |", "|---|---|---:|---:|"]
+    for group in ("sun_regimes_ground_observer", "observer_regimes"):
+        for v in js[group].values():
+            summary.append(f"| {v['description']} | {', '.join(v['scenes'])} | "
+                           f"{_fmt(v['max_rel_total'])} | {_fmt(v['max_rel_ms'])} |")
+    block = BEGIN + "\n\n" + table + "\n".join(summary) + "\n\n" + END
+    head, rest = text.split(BEGIN, 1)
+    _, tail = rest.split(END, 1)
+    _atomic_write(doc, head + block + tail)
+    return True
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--out", default=None, help="output directory (default docs/convergence)")
+    ap.add_argument("--quick", action="store_true", help="smoke run: tiny grids, 2 scenes")
+    ap.add_argument("--scenes", nargs="*", default=None, choices=sorted(SCENES))
+    ap.add_argument("--sweep-all", action="store_true",
+                    help="one-knob sweep for every atmosphere (default: earth_t2.5 only)")
+    ap.add_argument("--replot", action="store_true", help="only redraw the PNG from the CSV")
+    args = ap.parse_args(argv)
+    if args.replot:
+        replot(Path(args.out or ROOT / "docs" / "convergence"), official=args.out is None)
+        return 0
+    if args.quick:
+        scenes = args.scenes or ["clear_noon", "civil_twilight"]
+        knobs, default, reference = QUICK_KNOBS, QUICK_DEFAULT, QUICK_REFERENCE
+        out = Path(args.out or tempfile.mkdtemp(prefix="atmoscatter-ms-convergence-"))
+    else:
+        scenes = args.scenes or list(SCENES)
+        knobs, default, reference = KNOBS, DEFAULT, REFERENCE
+        out = Path(args.out or ROOT / "docs" / "convergence")
+    sweep = tuple(ATMOSPHERES) if args.sweep_all else SWEEP_ATMOSPHERES
+    machine = (f"{os.cpu_count()} CPUs (shared with other jobs, so times are noisy), "
+               f"{ms._THREADS} threads")
+    t0 = time.perf_counter()
+    state = {}
+
+    def write(records, refinfo):
+        state["paths"], state["table"] = write_outputs(
+            records, refinfo, scenes, default, reference, machine, out, sweep,
+            official=not (args.quick or args.out or args.scenes), quick=args.quick)
+
+    study(scenes, knobs, default, reference, sweep, on_atmosphere=write)
+    print(f"wrote {', '.join(str(p) for p in state['paths'])} in {time.perf_counter() - t0:.1f} s")
+    print(state["table"])
+    return 0
+
+
+def write_outputs(records, refinfo, scenes, default, reference, machine, out, sweep, official, quick):
+    done = [s for s in scenes if any(r["scene"] == s for r in records)]
+    out.mkdir(parents=True, exist_ok=True)
+    fields = list(records[0])
+    with open(out / "ms_convergence.csv.tmp", "w", newline="", encoding="utf-8") as f:
+        w = csv.DictWriter(f, fieldnames=fields)
+        w.writeheader()
+        w.writerows(records)
+    os.replace(out / "ms_convergence.csv.tmp", out / "ms_convergence.csv")
+    table = table_markdown(records, refinfo, done, default, reference, machine)
+    _atomic_write(out / "ms_convergence_table.md", table)
+    sweep_atm = next(a for a in dict.fromkeys(SCENES[s][0] for s in done) if a in sweep)
+    plot(records, out / "ms_convergence.png", sweep_atm)
+    js = accuracy_json(records, default, reference, machine)
+    js["command"] = "PYTHONPATH=. python benchmarks/ms_convergence.py" + (" --quick" if quick else "")
+    written = [out / n for n in ("ms_convergence.csv", "ms_convergence_table.md", "ms_convergence.png")]
+    if not official:
+        _atomic_write(out / "ms_accuracy.json", json.dumps(js, indent=1) + "\n")
+        written.append(out / "ms_accuracy.json")
+    else:
+        _atomic_write(ROOT / "atmoscatter" / "data" / "ms_accuracy.json", json.dumps(js, indent=1) + "\n")
+        written.append(ROOT / "atmoscatter" / "data" / "ms_accuracy.json")
+        if splice_docs(ROOT / "docs" / "convergence.md", table, js):
+            written.append(ROOT / "docs" / "convergence.md")
+    return written, table
+
+
+if __name__ == "__main__":
+    sys.exit(main())
