@@ -54,6 +54,21 @@ def _rotate(d, cos_t, rng):
             + (sin_t * np.sin(phi))[:, None] * w)
 
 
+def _scatter(d, sca, sca_tot, cons, rng):
+    """New directions after a real collision: choose the species by its share of the
+    scattering coefficient, then a direction from its phase function."""
+    u = rng.random(len(d)) * sca_tot
+    cum = np.zeros(len(d))
+    new_d = d.copy()
+    for sr, c in zip(sca, cons, strict=True):
+        pick = (u >= cum) & (u < cum + sr)
+        cum += sr
+        if np.any(pick):
+            cos_t = _sample_phase(c.phase, None, rng, int(pick.sum()))
+            new_d[pick] = _rotate(d[pick], cos_t, rng)
+    return new_d
+
+
 def _exit_distance(pos, d, radius):
     b = np.einsum("ij,ij->i", pos, d)
     c = np.einsum("ij,ij->i", pos, pos) - radius * radius
@@ -142,17 +157,7 @@ def _mc_radiance(atm, view, sun, altitude, n_paths, max_order, albedo, seed):
             tally[k[ri] - 1, ri] += w[ri] * f * ts / ext_r
             sca_tot = sum(sca_r)
             w[ri] *= sca_tot / ext_r
-            # choose the species, then a direction
-            u = rng.random(ri.size) * sca_tot
-            cum = np.zeros(ri.size)
-            new_d = d[ri].copy()
-            for sr, c in zip(sca_r, cons, strict=True):
-                pick = (u >= cum) & (u < cum + sr)
-                cum += sr
-                if np.any(pick):
-                    cos_t = _sample_phase(c.phase, None, rng, int(pick.sum()))
-                    new_d[pick] = _rotate(d[ri][pick], cos_t, rng)
-            d[ri] = new_d
+            d[ri] = _scatter(d[ri], sca_r, sca_tot, cons, rng)
         finished = np.concatenate([dead, ri[k[ri] >= max_order], gi[k[gi] >= max_order]])
         alive = np.setdiff1d(alive, finished)
     mean = tally.mean(axis=1)
@@ -323,16 +328,7 @@ def _mc_twilight(atm, view, sun, altitude, n_paths, max_order, seed, majorant=2.
             sca_tot = sum(sca_r)
             w[ri] *= sca_tot / ext[real]
             k[ri] += 1
-            u = rng.random(ri.size) * sca_tot
-            cum = np.zeros(ri.size)
-            new_d = d[ri].copy()
-            for s, c in zip(sca_r, cons, strict=True):
-                pick = (u >= cum) & (u < cum + s)
-                cum += s
-                if np.any(pick):
-                    cos_t = _sample_phase(c.phase, None, rng, int(pick.sum()))
-                    new_d[pick] = _rotate(d[ri][pick], cos_t, rng)
-            d[ri] = new_d
+            d[ri] = _scatter(d[ri], sca_r, sca_tot, cons, rng)
         done = np.concatenate([alive[~inside], ri[k[ri] >= max_order]])
         alive = np.setdiff1d(alive, done)
     total = first + rest
