@@ -299,15 +299,7 @@ def markdown(rows, rule, header, refcheck=None):
     out += ["", "Cost (wall time of one render of the map; cold = field computed from scratch, "
             "`ATMOSCATTER_CACHE_DIR=off` and in-process caches cleared; warm = the same render "
             "again):", "", "| T | sampling | n_wl | cold [s] | warm [s] |", "|---|---|---|---|---|"]
-    seen = set()
-    for r in rows:
-        key = (r["turbidity"], r["sampling"], r["n_wavelengths"])
-        if key in seen or not np.isfinite(float(r["cold_s"])):
-            continue
-        seen.add(key)
-        samp = r["sampling"] if r["sampling"] == "rgb" else f"spectral {_f(r['step'], 'g')} nm"
-        out.append(f"| {_f(r['turbidity'], 'g')} | {samp} | {r['n_wavelengths']} "
-                   f"| {_f(r['cold_s'], '.1f')} | {_f(r['warm_s'], '.3f')} |")
+    out += _cost_rows(rows)
     checks = [r["subset_check"] for r in rows if r["subset_check"] not in ("", "reference")]
     if checks:
         out += ["", f"Subset check: the direct {CHECK_STEP:g} nm render differs from the "
@@ -325,6 +317,20 @@ def markdown(rows, rule, header, refcheck=None):
             f"({rule['n_wavelengths']} wavelengths) when the sun is below "
             f"{rule['elevation_threshold_deg']:g}°, else rgb.", ""]
     return "\n".join(out)
+
+
+def _cost_rows(rows):
+    """One table row per (turbidity, sampling, wavelengths): cold and warm render time."""
+    out, seen = [], set()
+    for r in rows:
+        key = (r["turbidity"], r["sampling"], r["n_wavelengths"])
+        if key in seen or not np.isfinite(float(r["cold_s"])):
+            continue
+        seen.add(key)
+        samp = r["sampling"] if r["sampling"] == "rgb" else f"spectral {_f(r['step'], 'g')} nm"
+        out.append(f"| {_f(r['turbidity'], 'g')} | {samp} | {r['n_wavelengths']} "
+                   f"| {_f(r['cold_s'], '.1f')} | {_f(r['warm_s'], '.3f')} |")
+    return out
 
 
 DOC_ELEVATIONS = (60.0, 2.0, -6.0, -10.0)
@@ -351,15 +357,7 @@ def doc_table(rows, rule):
                        f"({_f(b['dE_max'], '.2f')}) | {_f(b['Y_err_max'], '.1%')} |")
     out += ["", "| T | sampling | wavelengths | first render (field from scratch) [s] "
             "| warm render [s] |", "|---|---|---|---|---|"]
-    seen = set()
-    for r in rows:
-        key = (r["turbidity"], r["sampling"], r["n_wavelengths"])
-        if key in seen or not np.isfinite(float(r["cold_s"])):
-            continue
-        seen.add(key)
-        samp = r["sampling"] if r["sampling"] == "rgb" else f"spectral {_f(r['step'], 'g')} nm"
-        out.append(f"| {_f(r['turbidity'], 'g')} | {samp} | {r['n_wavelengths']} "
-                   f"| {_f(r['cold_s'], '.1f')} | {_f(r['warm_s'], '.3f')} |")
+    out += _cost_rows(rows)
     out += ["", f"Rule (from the full table): below {rule['elevation_threshold_deg']:g}° sun "
             f"elevation `sampling=\"auto\"` samples every {step:g} nm "
             f"({rule['n_wavelengths']} wavelengths); target ΔE2000 (95th percentile over the "
