@@ -788,13 +788,19 @@ def _field_for(atm_obj, atm, grid, albedo, orders, tol=None):
             res = cache.cached("multiple_scattering", key, compute, meta=meta)
             if res["S_sum"].shape != field.shape_out + (len(atm.scatterers), atm.n_wavelengths):
                 res = compute()  # a stale entry of another layout: never trust it
+            res = dict(res)
+            # the gather reads log S: take the logarithms once per field, not per call
+            res["logS"] = _log_table(np.ascontiguousarray(res["S_sum"]).reshape(field.shape_out + (-1,)))
             with _CACHE_LOCK:
                 if len(_RESULTS) >= _RESULTS_MAX:
                     _RESULTS.pop(next(iter(_RESULTS)))
                 _RESULTS[key] = res
     if orders is None:
         _warn_tail(int(res["orders"]), float(res["tail"]), tol)
-    return field, res["S_sum"]
+    logS = res.get("logS")
+    if logS is None:
+        logS = _log_table(np.ascontiguousarray(res["S_sum"]).reshape(field.shape_out + (-1,)))
+    return field, res["S_sum"], logS
 
 
 def multiple_scattering(
@@ -877,12 +883,11 @@ def multiple_scattering(
     )
     if not atm.scatterers:
         return single
-    field, S_sum = _field_for(atmosphere, atm, grid, albedo, n_orders, tol)
+    field, S_sum, logS = _field_for(atmosphere, atm, grid, albedo, n_orders, tol)
     vf = v.reshape(-1, 3)
     fin = finite.reshape(-1)
     vf = np.where(fin[:, None], vf, np.array([0.0, 0.0, 1.0]))
     r0 = atm.planet_radius + alt
-    logS = _log_table(np.ascontiguousarray(S_sum).reshape(field.shape_out + (-1,)))
     # rotate into the grid's frame is unnecessary: the march works in the local frame and
     # only uses local (h, μ, μ_s, cos φ) of every sample.
     def direct(vv):
