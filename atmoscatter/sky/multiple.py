@@ -16,7 +16,7 @@ Method (successive orders, seed 004's recursion)::
 
 ``E^i`` is the irradiance of order ``i`` on the ground ``G`` where a ray ends (``E⁰`` is
 the direct sun).  The radiance field ``I^i`` of each order is kept on a grid over
-altitude × solar zenith angle × view zenith (double Gauss) × relative azimuth (0–π,
+altitude × solar zenith angle × view zenith (Gauss nodes) × relative azimuth (0–π,
 the field is symmetric about the solar vertical) — the horizontally uniform atmosphere
 and parallel sun make these four variables sufficient (Bruneton & Neyret 2008 use the
 same reduction).  The grid is the design's core; each axis is chosen for where the field
@@ -103,13 +103,15 @@ class MultipleScatteringGrid:
     Parameters
     ----------
     n_altitude : int
-        Altitude levels, ≥ 2 (quadratically clustered toward the ground).
+        Altitude levels, ≥ 2, equidistributed in a mix of height and vertical optical depth
+        (:func:`_altitude_nodes`).
     n_sun : int
         Solar zenith angles, ≥ 2, in 0–``max_sun_zenith``; their density grows toward
         the horizon and below it (``horizon_density``), where the field changes fastest.
     n_mu : int
-        View zenith cosines of the quadrature, even, ≥ 2 (double Gauss: half on each side
-        of the horizontal).  The source is also evaluated at the zenith and the nadir, so
+        View zenith cosines of the quadrature, even, ≥ 2 (Gauss nodes: half above the
+        horizontal, the rest split at each altitude's horizon between the limb and the
+        ground).  The source is also evaluated at the zenith and the nadir, so
         interpolation never extrapolates toward the poles.
     n_phi : int
         Relative azimuths, ≥ 2, uniform in 0–π inclusive.
