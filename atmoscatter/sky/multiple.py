@@ -853,7 +853,9 @@ def multiple_scattering(
         The field depends only on the atmosphere, albedo, orders and grid, and is cached
         in the process and on disk (the first call for an atmosphere costs seconds —
         ``benchmarks/bench_multiple.py`` — later calls and later processes only the
-        view-path gather).
+        view-path gather).  At low sun the azimuth resolution dominates the remaining
+        error: ``MultipleScatteringGrid(n_phi=13)`` removes most of it at sunset and in
+        twilight (see the ``n_phi`` row of the study in ``docs/convergence.md``).
     batch_size : int
         Directions per batch of the gather (bounds memory).
 
