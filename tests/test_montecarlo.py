@@ -69,6 +69,17 @@ def _scatter(d, sca, sca_tot, cons, rng):
     return new_d
 
 
+def _enter_atmosphere(pos, d, alive, altitude, R, top):
+    """For an observer in space, move the paths to where their ray enters the atmosphere
+    (in place) and keep only those that enter; otherwise ``alive`` unchanged."""
+    if altitude <= top - R:
+        return alive
+    near, _ = _exit_distance(pos, d, top)
+    hit = np.isfinite(near) & (near > 0)
+    pos[hit] += near[hit, None] * d[hit]
+    return alive[hit]
+
+
 def _exit_distance(pos, d, radius):
     b = np.einsum("ij,ij->i", pos, d)
     c = np.einsum("ij,ij->i", pos, pos) - radius * radius
@@ -112,11 +123,7 @@ def _mc_radiance(atm, view, sun, altitude, n_paths, max_order, albedo, seed):
     k = np.zeros(n_paths, dtype=int)
     tally = np.zeros((max_order, n_paths))
     alive = np.arange(n_paths)
-    if altitude > top - R:  # move to the entry point
-        near, _ = _exit_distance(pos, d, top)
-        hit = np.isfinite(near) & (near > 0)
-        pos[hit] += near[hit, None] * d[hit]
-        alive = alive[hit]
+    alive = _enter_atmosphere(pos, d, alive, altitude, R, top)
     while alive.size:
         p, dd = pos[alive], d[alive]
         g_near, _ = _exit_distance(p, dd, R)
@@ -297,11 +304,7 @@ def _mc_twilight(atm, view, sun, altitude, n_paths, max_order, seed, majorant=2.
     first = np.zeros(n_paths)
     rest = np.zeros(n_paths)
     alive = np.arange(n_paths)
-    if altitude > top - R:  # observer in space: start where the ray enters
-        near, _ = _exit_distance(pos, d, top)
-        hit = np.isfinite(near) & (near > 0)
-        pos[hit] += near[hit, None] * d[hit]
-        alive = alive[hit]
+    alive = _enter_atmosphere(pos, d, alive, altitude, R, top)
     while alive.size:
         p, dd = pos[alive], d[alive]
         g_near, _ = _exit_distance(p, dd, R)
