@@ -114,7 +114,8 @@ def _kernels():
         except ImportError:  # pragma: no cover - numba is a declared dependency
             _KERNELS = False
         else:
-            _KERNELS = {"locate_rows": k._locate_rows, "gather_log": k._gather_log}
+            _KERNELS = {"locate_rows": k._locate_rows, "gather_log": k._gather_log,
+                        "sun_transmittance": k.sun_transmittance}
     return _KERNELS or None
 
 
@@ -123,6 +124,10 @@ def have_kernel() -> bool:
     return _kernels() is not None
 
 
+def kernel(name: str):
+    """The compiled kernel ``name`` of :mod:`._ms_kernels`, or ``None`` without numba."""
+    k = _kernels()
+    return None if k is None else k[name]
 
 
 def gather(table, h_nodes, th_nodes, mu_nodes, h, mus, mu, cphi, wt, *, threads=1, use_kernel=True,

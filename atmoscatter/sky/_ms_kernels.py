@@ -103,3 +103,44 @@ def _gather_log(logflat, n_s, n_mu, n_phi, th_nodes, base, frac, wt, out):  # pr
                             acc[c] += logflat[bq, c] * u0 + logflat[bq + 1, c] * u1
             for c in range(C):
                 out[n, c] += wt[n, s, c] * np.exp(acc[c])
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _tau_up_one(h_nodes, tau, nx, h, mu, c, acc):  # pragma: no cover - compiled
+    """Bilinear ``τ↑`` of :class:`multiple._SunTransmittance` (nodes in ``h`` × ``√μ``)
+    at one point, for every wavelength, times ``c``, added to ``acc``."""
+    i, fi = _locate(h_nodes, h)
+    x = np.sqrt(min(max(mu, 0.0), 1.0)) * (nx - 1)
+    j = int(x)
+    if j > nx - 2:
+        j = nx - 2
+    fj = x - j
+    for w in range(tau.shape[2]):
+        acc[w] += c * ((1.0 - fi) * ((1.0 - fj) * tau[i, j, w] + fj * tau[i, j + 1, w])
+                       + fi * ((1.0 - fj) * tau[i + 1, j, w] + fj * tau[i + 1, j + 1, w]))
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def sun_transmittance(h_nodes, tau, R, top, h, mus, out):  # pragma: no cover - compiled
+    """``out[n, w] = T`` of the sun ray at altitudes ``h`` and sun zenith cosines ``mus``
+    (flat arrays): the compiled twin of :meth:`multiple._SunTransmittance.__call__`."""
+    nx = tau.shape[1]
+    nwl = tau.shape[2]
+    acc = np.empty(nwl)
+    for n in range(h.shape[0]):
+        hh = min(max(h[n], 0.0), top - R)
+        m = min(max(mus[n], -1.0), 1.0)
+        for w in range(nwl):
+            acc[w] = 0.0
+        if m >= 0.0:
+            _tau_up_one(h_nodes, tau, nx, hh, m, 1.0, acc)
+        else:
+            rp = (R + hh) * np.sqrt((1.0 - m) * (1.0 + m))
+            if rp < R:
+                for w in range(nwl):
+                    out[n, w] = 0.0
+                continue
+            _tau_up_one(h_nodes, tau, nx, rp - R, 0.0, 2.0, acc)
+            _tau_up_one(h_nodes, tau, nx, hh, -m, -1.0, acc)
+        for w in range(nwl):
+            out[n, w] = np.exp(-max(acc[w], 0.0))

@@ -83,6 +83,7 @@ from . import _quadrature as qd
 from ._ms_gather import Located as _Located
 from ._ms_gather import gather as _gather_kernel
 from ._ms_gather import have_kernel as _have_kernel
+from ._ms_gather import kernel as _ms_kernel
 from ._ms_gather import log_table as _log_table
 from .single import (
     TABLE_THRESHOLD,
@@ -339,10 +340,19 @@ class _SunTransmittance:
         return ((1 - fi) * ((1 - fj) * t[i, j] + fj * t[i, j + 1])
                 + fi * ((1 - fj) * t[i + 1, j] + fj * t[i + 1, j + 1]))
 
-    def __call__(self, h: np.ndarray, mus: np.ndarray) -> np.ndarray:
-        """``T`` (..., nwl) at altitudes ``h`` [m] and sun zenith cosines ``mus``."""
-        h = np.asarray(h, dtype=float)
-        mus = np.clip(np.asarray(mus, dtype=float), -1.0, 1.0)
+    def __call__(self, h: np.ndarray, mus: np.ndarray, use_kernel: bool = True) -> np.ndarray:
+        """``T`` (..., nwl) at altitudes ``h`` [m] and sun zenith cosines ``mus`` (the
+        compiled kernel where available; ``use_kernel=False``: the NumPy version, which
+        the tests compare it with)."""
+        h, mus = np.broadcast_arrays(np.asarray(h, dtype=float), np.asarray(mus, dtype=float))
+        kern = _ms_kernel("sun_transmittance") if use_kernel else None
+        if kern is not None:
+            out = np.empty(h.shape + (self.tau.shape[-1],))
+            kern(self.h_nodes, self.tau, float(self.R), float(self.top),
+                 np.ascontiguousarray(h).reshape(-1), np.ascontiguousarray(mus).reshape(-1),
+                 out.reshape(-1, self.tau.shape[-1]))
+            return out
+        mus = np.clip(mus, -1.0, 1.0)
         r = self.R + np.clip(h, 0.0, self.top - self.R)
         rp = r * np.sqrt((1.0 - mus) * (1.0 + mus))
         below = mus < 0.0
@@ -547,7 +557,10 @@ class _FieldState:
             # function is constant along a straight ray) + ground-reflected direct sun
             P = np.stack([np.asarray(ph(np.clip(dirs @ s, -1.0, 1.0)), dtype=float)
                           for _, _, ph in atm.scatterers], axis=-1)  # (N, n_sc)
-            path = np.einsum("nmiw,nmw,ni->nw", mc.wt, sun_t(mc.h, mc.mus), P)
+            # Σ_m Σ_i w T p_i, as (N, M, nwl) products then a BLAS-free sum over the
+            # samples (a three-operand einsum here is several times slower)
+            wp = np.einsum("nmiw,ni->nmw", mc.wt, P, optimize=True)
+            path = np.einsum("nmw,nmw->nw", wp, sun_t(mc.h, mc.mus))
             if albedo > 0:
                 e0 = np.maximum(mc.mus_end, 0.0)[:, None] * sun_t(np.zeros_like(mc.mus_end),
                                                                    mc.mus_end)
@@ -565,8 +578,11 @@ class _FieldState:
         f = self.field
         n_r, n_s, n_mu, n_phi = f.shape
         nsc, nwl = len(self.atm.scatterers), self.atm.n_wavelengths
-        Lf = L.reshape(n_r, n_s, n_mu * n_phi, nwl)
-        S = np.einsum("riab,rsbw->rsaiw", self.W, Lf)
+        n_dir, n_out = n_mu * n_phi, self.W.shape[2]
+        # per altitude one matrix product (BLAS): (n_sc·n_out, n_dir) @ (n_dir, n_s·nwl)
+        Lf = L.reshape(n_r, n_s, n_dir, nwl).transpose(0, 2, 1, 3).reshape(n_r, n_dir, n_s * nwl)
+        S = np.matmul(self.W.reshape(n_r, nsc * n_out, n_dir), Lf)  # (n_r, nsc·n_out, n_s·nwl)
+        S = S.reshape(n_r, nsc, n_out, n_s, nwl).transpose(0, 3, 2, 1, 4)
         return np.ascontiguousarray(S).reshape(f.shape_out + (nsc, nwl))
 
     def _next_field(self, S):
