@@ -59,6 +59,7 @@ __all__ = [
     "DEFAULT_SINGLE_SCATTERING_METHOD",
     "DEFAULT_SINGLE_SCATTERING_SAMPLES",
     "TABLE_THRESHOLD",
+    "TWILIGHT_TABLE_THRESHOLD",
     "TABLE_FLOOR",
     "ConvergenceWarning",
 ]
@@ -71,16 +72,24 @@ class ConvergenceWarning(UserWarning):
 DEFAULT_SINGLE_SCATTERING_METHOD: str = "graded"
 """Default method of :func:`single_scattering` (see ``docs/convergence.md``).  With
 ``method=None`` large batches (≥ :data:`TABLE_THRESHOLD` directions) seen by an observer
-inside the atmosphere, with the sun above the observer's ground horizon and no profile
-breakpoint (e.g. the ozone layer's lower edge) below the observer, use ``"table"``
-instead: a self-checked log-space table whose cells that fail the check are integrated
-directly, so a direction's radiance agrees with the small-batch result to 1e-3 for every
-value above :data:`TABLE_FLOOR` of the sky maximum (tests over turbidity 1.5–10 and
-sun elevations 90° … −18°).  Elsewhere (twilight, breakpoints below the observer,
-observers in space) large batches use ``"graded"`` like small ones."""
+inside the atmosphere with no profile breakpoint (e.g. the ozone layer's lower edge)
+below the observer use ``"table"`` instead: a self-checked log-space table whose cells
+that fail the check (and their neighbours) are integrated directly, so a direction's
+radiance agrees with the small-batch result to 1e-3 for every value above
+:data:`TABLE_FLOOR` of the sky maximum (tests over turbidity 1.5–10 and sun elevations
+90° … −18°).  With the sun low (``sin(elevation) < √(1 − (R/r)²)``, the depression of
+the observer's ground horizon: sun below the horizon for an observer on the ground) the
+table has :data:`_TWILIGHT_PHI_NODES` azimuths and is used from
+:data:`TWILIGHT_TABLE_THRESHOLD` directions (its build costs as much as ~30 000 direct
+directions).  Elsewhere (breakpoints below the observer, observers in space) large
+batches use ``"graded"`` like small ones."""
 
 TABLE_THRESHOLD: int = 4096
 """Number of directions from which ``method=None`` may switch to the ``"table"`` path."""
+
+TWILIGHT_TABLE_THRESHOLD: int = 65536
+"""Number of directions from which ``method=None`` switches to the ``"table"`` path when
+the sun is below the observer's ground horizon."""
 
 DEFAULT_SINGLE_SCATTERING_SAMPLES: dict[str, int] = {
     "keller_bohn": 32,
@@ -493,12 +502,33 @@ TABLE_CHECK_TOL: float = 3e-4
 #: (nodes in the horizon/zenith variable x, nodes in the relative azimuth φ) by default
 _TABLE_NODES = (129, 17)
 
+#: nodes in φ of the table when the sun is below the observer's ground horizon: the
+#: shadow's edge crosses the sky along φ, and with 17 nodes ~40 % of the cells fail their
+#: self-check at sun −6°; with 65, 5–7 % (and 2–3 % more as their neighbours)
+_TWILIGHT_PHI_NODES = 65
+
 #: slope of the node map at the horizon (``u = x (a + (1 − a) x)``; 1 = uniform in u)
 _TABLE_STRETCH = 0.25
 
 #: log range kept in the table: values below ``exp(-_LOG_RANGE)`` × the channel's maximum
 #: are clamped there (and returned as 0)
 _LOG_RANGE = 69.0  # 1e-30
+
+
+def _dilate(mask: np.ndarray) -> np.ndarray:
+    """``mask`` (2-D) or any of its eight neighbours (no wrap-around)."""
+    out = mask.copy()
+    for axis in (0, 1):
+        grown = out.copy()
+        sl = [slice(None)] * 2
+        sl[axis] = slice(1, None)
+        lo = tuple(sl)
+        sl[axis] = slice(None, -1)
+        hi = tuple(sl)
+        grown[lo] |= out[hi]
+        grown[hi] |= out[lo]
+        out = grown
+    return out
 
 
 def _cubic_weights(t: np.ndarray) -> np.ndarray:
@@ -529,8 +559,11 @@ class _LogSkyTable:
     **Self-check.**  The graded rule is also evaluated at the centre of every cell and
     compared with the interpolant; cells where it differs by more than
     :data:`TABLE_CHECK_TOL` for a value above 0.1 × :data:`TABLE_FLOOR` of the channel's
-    maximum are marked, and directions falling into a marked cell are integrated
-    directly (:meth:`bad`).
+    maximum are marked, together with their eight neighbours (a 4 × 4 stencil reaches
+    one cell beyond its own, so a kink inside a marked cell also spoils the neighbours'
+    interpolants, where the centre check can pass by chance: measured at twilight, every
+    direction off by more than 1e-3 lay in such a neighbour), and directions falling into
+    a marked cell are integrated directly (:meth:`J`).
     """
 
     def __init__(self, atm, r0, s, n_u, n_phi, q, tol=None, floor=None, stretch=None):
@@ -584,7 +617,7 @@ class _LogSkyTable:
             err = np.abs(got - true)
             dark = np.maximum(got, true) < 0.1 * self.floor * self.jmax
             bad = np.any((err > self.tol * true) & ~dark, axis=1)
-            self.bad_cells[name] = bad.reshape(cu, cp)
+            self.bad_cells[name] = _dilate(bad.reshape(cu, cp))
             self.n_bad += int(np.count_nonzero(bad))
         self.n_cells = sum(b.size for b in self.bad_cells.values())
         self.n_direct = v.shape[0]
@@ -679,9 +712,10 @@ class _LogSkyTable:
         return np.moveaxis(out.reshape(-1, G, nwl), 1, 0)
 
 
-def _table_size(samples: int) -> tuple[int, int]:
-    """(nodes in u, nodes in φ) of the table for ``samples`` nodes in u."""
-    return int(samples), _TABLE_NODES[1]
+def _table_size(samples: int, twilight: bool = False) -> tuple[int, int]:
+    """(nodes in u, nodes in φ) of the table for ``samples`` nodes in u (``twilight``: the
+    sun is below the observer's ground horizon)."""
+    return int(samples), (_TWILIGHT_PHI_NODES if twilight else _TABLE_NODES[1])
 
 
 _TABLE_CACHE: OrderedDict = OrderedDict()
@@ -712,7 +746,9 @@ def _cached_table(atmosphere, atm, r0, s, n_mu, n_phi, q):
 def _table_radiance(atmosphere, atm, r0, v, s, samples, q=4, chunk=1 << 15):
     """Radiance through :class:`_SkyTable`, in chunks spread over a small thread pool
     (NumPy releases the GIL in the gathers and arithmetic)."""
-    n_mu, n_phi = _table_size(samples)
+    R = atm.planet_radius
+    dip = np.sqrt(max(0.0, 1.0 - (R / max(r0, R)) ** 2))
+    n_mu, n_phi = _table_size(samples, twilight=bool(s[2] < dip))
     table = _cached_table(atmosphere, atm, r0, s, n_mu, n_phi, q)
     out = np.empty((v.shape[0], atm.n_wavelengths))
     sub = atm.scatterers
@@ -987,7 +1023,7 @@ def single_scattering(
         # a profile breakpoint below the observer puts kinks into J(μ) (view rays whose
         # perigee crosses it); the polynomial table is then not accurate enough
         kinks_below = any(np.any(b < alt) for b in atm.breakpoints)
-        if s[2] >= dip and not kinks_below:
+        if not kinks_below and (s[2] >= dip or vf.shape[0] >= TWILIGHT_TABLE_THRESHOLD):
             method = "table"
     if method == "reference":
         tol = 1e-6 if rtol is None else float(check_range(rtol, "rtol", 1e-12, 0.1))
