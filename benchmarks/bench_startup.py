@@ -31,8 +31,20 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(ac.__file__)))
 
 def _env(**extra):
     env = dict(os.environ, PYTHONPATH=os.pathsep.join([ROOT, os.environ.get("PYTHONPATH", "")]))
+    # as installed (pip writes bytecode): without this, every process would compile the
+    # package's source again (~0.1 s) and the timings would measure the compiler
+    env.pop("PYTHONDONTWRITEBYTECODE", None)
     env.update(extra)
     return env
+
+
+def _best(fn, repeats):
+    best = np.inf
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        fn()
+        best = min(best, time.perf_counter() - t0)
+    return best
 
 
 def _run(args, cwd=None, env=None):
@@ -45,7 +57,34 @@ def _run(args, cwd=None, env=None):
 
 
 def _best_run(args, repeats):
+    _run(args)  # writes the bytecode of what it imports
     return min(_run(args)[0] for _ in range(repeats))
+
+
+def _cold_warm():
+    """Seconds of the default CLI render in a process with an empty numba cache, then in a
+    second process with the same cache, and the cache statistics of both."""
+    with tempfile.TemporaryDirectory() as tmp:
+        env = _env(NUMBA_CACHE_DIR=os.path.join(tmp, "numba"))
+        out = os.path.join(tmp, "sky.exr")
+        cold, r1 = _run(["-c", _CACHE_PROBE, out], env=env)
+        warm = []
+        for _ in range(5):
+            dt, r2 = _run(["-c", _CACHE_PROBE, out], env=env)
+            warm.append(dt)
+    stats = [json.loads(r.stdout.strip().splitlines()[-1]) for r in (r1, r2)]
+    return cold, min(warm), stats
+
+
+def _render_and_kernel(repeats=15):
+    scene = ac.Scene(width=1024, height=512)
+    p = ac.plan(scene)
+    d = direction_set(scene, p).all_directions().reshape(-1, 3)
+    sky = d[d[:, 2] >= p.horizon_z] if p.skip_below_horizon else d
+    ac.render(scene)
+    t_kernel = _best(lambda: ac.preetham_sky(sky, p.sun_direction, scene.turbidity), repeats)
+    t_render = _best(lambda: ac.render(scene), repeats)
+    return t_render, t_kernel, len(sky)
 
 
 @pytest.mark.parametrize("what,args", [
@@ -75,27 +114,12 @@ print(json.dumps({"hits": hits, "misses": misses}))
 
 def test_default_render_cold_and_warm():
     """The README's ``atmoscatter render -o sky.exr``: cold (kernels compile into an empty numba
-    cache) then warm (a second process loads them from the cache: ``cache=True`` hits)."""
+    cache) then warm (later processes load them from the cache: ``cache=True`` hits)."""
     pytest.importorskip("numba")
-    with tempfile.TemporaryDirectory() as tmp:
-        env = _env(NUMBA_CACHE_DIR=os.path.join(tmp, "numba"))
-        out = os.path.join(tmp, "sky.exr")
-        cold, r1 = _run(["-c", _CACHE_PROBE, out], env=env)
-        warm, r2 = _run(["-c", _CACHE_PROBE, out], env=env)
-        first = json.loads(r1.stdout.strip().splitlines()[-1])
-        second = json.loads(r2.stdout.strip().splitlines()[-1])
+    cold, warm, (first, second) = _cold_warm()
     assert first["misses"] >= 1 and first["hits"] == 0, first
     assert second["hits"] >= 1 and second["misses"] == 0, second  # numba's cache=True works
     print(f"\ndefault render end to end: cold {cold:.2f} s, warm {warm:.2f} s")
-
-
-def _best(fn, repeats):
-    best = np.inf
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        fn()
-        best = min(best, time.perf_counter() - t0)
-    return best
 
 
 def test_render_1024x512_against_the_bare_kernel(benchmark):
@@ -112,11 +136,37 @@ def test_render_1024x512_against_the_bare_kernel(benchmark):
     np.testing.assert_allclose(rgb_sky, ac.XYZ_to_linear_rgb(xyz), rtol=1e-6, atol=1e-6)
     if benchmark.disabled:
         return
-    t_kernel = _best(lambda: ac.preetham_sky(sky, p.sun_direction, scene.turbidity), 15)
-    t_render = _best(lambda: ac.render(scene), 15)
+    t_render, t_kernel, n_sky = _render_and_kernel()
     ratio = t_render / t_kernel
     benchmark.extra_info.update(render_s=t_render, kernel_s=t_kernel, ratio=ratio,
-                                directions=len(sky))
+                                directions=n_sky)
     print(f"\nrender 1024x512: {t_render * 1e3:.1f} ms; bare preetham_sky on its {len(sky)} "
           f"sky directions: {t_kernel * 1e3:.1f} ms; ratio {ratio:.2f}")
     assert ratio < 2.0, f"render is {ratio:.2f}x its kernel (target <= 2x)"
+
+
+def main() -> None:
+    """Print the Markdown table of docs/cli.md (best of 5 runs; 15 for the in-process pair)."""
+    bare = _best_run(["-c", "pass"], 5)
+    imp = _best_run(["-c", "import atmoscatter"], 5)
+    hlp = _best_run(["-m", "atmoscatter", "--help"], 5)
+    cold, warm, (first, second) = _cold_warm()
+    t_render, t_kernel, n_sky = _render_and_kernel()
+    rows = [
+        ("bare interpreter (`python -c pass`)", f"{bare:.2f} s"),
+        ("`python -c \"import atmoscatter\"`", f"{imp:.2f} s"),
+        ("`atmoscatter --help`", f"{hlp:.2f} s"),
+        ("`atmoscatter render -o sky.exr`, first run (kernels compile)", f"{cold:.2f} s"),
+        ("`atmoscatter render -o sky.exr`, later runs (numba cache hit: "
+         f"{second['hits']} hit, {second['misses']} miss)", f"{warm:.2f} s"),
+        (f"`render(Scene())` in a warm process / bare `preetham_sky` on its {n_sky} sky "
+         "directions", f"{t_render * 1e3:.0f} ms / {t_kernel * 1e3:.0f} ms "
+                       f"({t_render / t_kernel:.2f}×)"),
+    ]
+    print("| what | time |\n| --- | --- |")
+    for what, t in rows:
+        print(f"| {what} | {t} |")
+
+
+if __name__ == "__main__":
+    main()
