@@ -6,7 +6,8 @@ module defines ``__all__`` and is re-exported here, one line per module.
 """
 
 # ruff: noqa: I001  (re-exports are grouped by topic, not alphabetically)
-from __future__ import annotations
+# (no ``from __future__ import annotations`` here: it would leak ``annotations`` into ``ac``)
+import sys as _sys
 
 __version__ = "0.1.0"
 
@@ -42,3 +43,10 @@ from .batch import *  # noqa: F403
 # oracle toolkit
 from .integrals import *  # noqa: F403
 from .compare import *  # noqa: F403
+
+#: The public names: exactly the union of the re-exported modules' ``__all__``.
+_REEXPORTED = ("atmosphere", "colour", "geometry", "optical_length", "phase", "presets",
+               "scattering", "solar", "standard_atmosphere", "sun", "sky.aerial", "sky.cie",
+               "sky.perez", "sky.preetham", "sky.single", "sky.multiple", "scene", "directions",
+               "models", "render", "exr", "preview", "batch", "integrals", "compare")
+__all__ = sorted({n for m in _REEXPORTED for n in _sys.modules[f"{__name__}.{m}"].__all__})

@@ -22,6 +22,7 @@ Errors are printed as one line (``atmoscatter: error: ...``) with exit status 2
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import sys
 import time
@@ -56,6 +57,8 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--preview", metavar="PNG", help="also write a tone-mapped PNG preview")
     r.add_argument("--workers", type=int, default=None, help="threads (default: cores)")
     r.add_argument("--batch-size", type=int, default=None, help="directions per model call")
+    r.add_argument("--quiet", action="store_true",
+                   help="no progress bar (shown on a terminal when a render takes over ~2 s)")
     common(r)
 
     b = sub.add_parser("batch", help="render many scenes (CSV/TOML table or sweep)")
@@ -123,7 +126,8 @@ def _cmd_render(args, out) -> int:
     if not args.output:
         raise ValueError("render needs an output file: -o sky.exr (or --explain to only plan)")
     t0 = time.perf_counter()
-    img = render(scene, workers=args.workers, batch_size=args.batch_size)
+    with _render_progress(quiet=args.quiet) as progress:
+        img = render(scene, workers=args.workers, batch_size=args.batch_size, progress=progress)
     write_exr(args.output, img)
     size = "x".join(map(str, img.shape[::-1]))
     print(f"wrote {args.output} ({scene.projection} {size}, "
@@ -132,6 +136,42 @@ def _cmd_render(args, out) -> int:
         write_preview(img, args.preview)
         print(f"wrote {args.preview}", file=out)
     return 0
+
+
+#: A render's progress bar appears only once the render has run this long [s].
+PROGRESS_DELAY = 2.0
+
+
+@contextlib.contextmanager
+def _render_progress(*, quiet: bool, stream=None):
+    """A ``progress(done, total)`` callback drawing a tqdm bar on ``stream`` (stderr), or None.
+
+    None (no bar, tqdm not imported) under ``--quiet`` or when the stream is not a terminal;
+    the bar itself stays hidden for renders shorter than :data:`PROGRESS_DELAY`.
+    """
+    stream = sys.stderr if stream is None else stream
+    isatty = getattr(stream, "isatty", None)
+    if quiet or isatty is None or not isatty():
+        yield None
+        return
+    from tqdm import tqdm  # noqa: PLC0415
+
+    bar = None
+    t0 = time.monotonic()
+
+    def progress(done, total):
+        nonlocal bar
+        if bar is None:  # hidden until PROGRESS_DELAY after the start (set-up included)
+            wait = max(0.0, PROGRESS_DELAY - (time.monotonic() - t0))
+            bar = tqdm(total=total, unit="dir", unit_scale=True, desc="render", file=stream,
+                       delay=wait, leave=False, dynamic_ncols=True)
+        bar.update(done - bar.n)
+
+    try:
+        yield progress
+    finally:
+        if bar is not None:
+            bar.close()
 
 
 def _cmd_batch(args, out) -> int:

@@ -10,11 +10,19 @@ Public objects
 - :func:`XYZ_to_linear_rgb`, :func:`linear_rgb_to_XYZ`: linear RGB in any colour-science
   colourspace (default sRGB / Rec. 709 primaries).
 
-No colour data is hand-copied: the CMFs and RGB matrices come from colour-science.
+No colour data is hand-copied: the CMFs and RGB matrices come from colour-science.  The RGB
+colourspaces (names, aliases, matrices, primaries, whitepoints) are read from
+``data/colourspaces.json``, written from ``colour.RGB_COLOURSPACES`` by
+``scripts/make_colourspace_table.py`` and checked against colour-science by the tests, so that
+validating a colourspace name or converting to RGB does not import colour-science (about a
+second, with SciPy and Matplotlib); names the table lacks (a newer colour-science) are looked
+up in colour-science itself.
 """
 
 from __future__ import annotations
 
+import json
+import os
 from functools import lru_cache
 
 import numpy as np
@@ -125,19 +133,82 @@ def XYZ_to_xyY(XYZ, *, black_xy=(0.3127, 0.3290)):
     return np.stack([x, y, a[..., 1]], axis=-1)
 
 
+_COLOURSPACE_TABLE = os.path.join(os.path.dirname(__file__), "data", "colourspaces.json")
+
+
+@lru_cache(maxsize=1)
+def _colourspace_table() -> dict:
+    """``data/colourspaces.json`` (see ``scripts/make_colourspace_table.py``)."""
+    with open(_COLOURSPACE_TABLE, encoding="utf-8") as f:
+        return json.load(f)
+
+
+def _resolve_colourspace(name) -> str | None:
+    """colour-science's key of the RGB colourspace ``name``, or None if it is unknown.
+
+    Accepts what ``name in colour.RGB_COLOURSPACES`` accepts, in the same order: the exact key,
+    its lower-case, slugified or canonical variant (e.g. ``"srgb"``, ``"iturbt2020"``).
+    Names missing from the shipped table are looked up in colour-science (imported only then)
+    when the installed colour-science is not the version the table was written from.
+    """
+    if not isinstance(name, str):
+        return None
+    t = _colourspace_table()
+    if name in t["colourspaces"]:
+        return name
+    for variant, key in (("lower", name.lower()), ("slugified", name), ("canonical", name)):
+        hit = t[variant].get(key)
+        if hit is not None:
+            return hit
+    if _installed_colour_science_version() in (None, t["colour_science_version"]):
+        return None  # the table is colour-science's own list: ``name`` is not a colourspace
+    return name if _colour_science_colourspace(name) is not None else None
+
+
+@lru_cache(maxsize=1)
+def _installed_colour_science_version() -> str | None:
+    """Version of the installed colour-science (from its metadata: nothing is imported)."""
+    from importlib import metadata  # noqa: PLC0415
+
+    try:
+        return metadata.version("colour-science")
+    except metadata.PackageNotFoundError:  # pragma: no cover - a declared dependency
+        return None
+
+
+def _colour_science_colourspace(name):
+    """colour-science's colourspace object for ``name`` (None if unknown or not installed)."""
+    try:
+        import colour  # noqa: PLC0415
+    except ImportError:  # pragma: no cover - colour-science is a declared dependency
+        return None
+    return colour.RGB_COLOURSPACES[name] if name in colour.RGB_COLOURSPACES else None
+
+
+def _colourspace_data(name) -> dict | None:
+    """``matrix_XYZ_to_RGB`` (3, 3), ``primaries`` (3, 2) and ``whitepoint`` (2,) of ``name``
+    as float arrays (from the shipped table; colour-science for names it lacks), or None."""
+    key = _resolve_colourspace(name)
+    if key is None:
+        return None
+    entry = _colourspace_table()["colourspaces"].get(key)
+    if entry is None:
+        cs = _colour_science_colourspace(key)
+        entry = {"matrix_XYZ_to_RGB": cs.matrix_XYZ_to_RGB, "primaries": cs.primaries,
+                 "whitepoint": cs.whitepoint}
+    return {k: np.asarray(v, dtype=float) for k, v in entry.items()}
+
+
 def colourspace_names() -> list[str]:
     """Names of the RGB colourspaces colour-science provides (valid ``colourspace`` values)."""
-    import colour
-
-    return sorted(colour.RGB_COLOURSPACES.keys())
+    return sorted(_colourspace_table()["colourspaces"])
 
 
 @lru_cache(maxsize=32)
 def _matrices(colourspace: str):
-    import colour
-
-    check_option(colourspace, "colourspace", colour.RGB_COLOURSPACES.keys())
-    cs = colour.RGB_COLOURSPACES[colourspace]
+    data = _colourspace_data(colourspace)
+    if data is None:
+        check_option(colourspace, "colourspace", colourspace_names())
     # XYZ → RGB is colour-science's matrix for the colourspace (for sRGB the IEC 61966-2-1
     # published matrix), so results equal ``colour.XYZ_to_RGB`` without adaptation to
     # rounding; RGB → XYZ is its exact inverse so the two round-trip to rounding error.
@@ -145,7 +216,7 @@ def _matrices(colourspace: str):
     # each other only to 4e-5.)
     # Returned transposed and contiguous: callers compute ``a @ M.T`` on (..., 3) rows, and
     # a non-contiguous ``M.T`` makes that matmul ~6x slower.
-    xyz_to_rgb = np.asarray(cs.matrix_XYZ_to_RGB, dtype=float)
+    xyz_to_rgb = data["matrix_XYZ_to_RGB"]
     return np.ascontiguousarray(xyz_to_rgb.T), np.ascontiguousarray(np.linalg.inv(xyz_to_rgb).T)
 
 

@@ -94,6 +94,16 @@ class DirectionSet:
         """Solid angle [sr] of each pixel/vertex cell in ``start:stop``."""
         raise NotImplementedError
 
+    def up_range(self, start: int, stop: int) -> tuple[float, float] | None:
+        """The smallest and largest ``z`` (up component) of the directions ``start:stop``, all
+        of them valid, computed exactly as :meth:`directions` computes it; None when not
+        cheaply known.
+
+        Lets the evaluator fill a batch that lies wholly below the horizon without generating
+        its directions, and skip the horizon test of a batch wholly above it.
+        """
+        return None
+
     def all_directions(self):
         """All directions with shape ``shape + (3,)`` (allocates the full array)."""
         d, _ = self.directions(0, self.size)
@@ -145,8 +155,8 @@ class LatLongDirections(DirectionSet):
             az = 2.0 * np.pi * (np.arange(w) + 0.5) / w - np.pi
             ce = np.cos(el)[:, None]
             d = np.empty((rows.size, w, 3))
-            d[..., 0] = ce * np.sin(az)
-            d[..., 1] = ce * np.cos(az)
+            np.multiply(ce, np.sin(az), out=d[..., 0])  # in place: no (rows, w) temporaries
+            np.multiply(ce, np.cos(az), out=d[..., 1])
             d[..., 2] = np.sin(el)[:, None]
             return d.reshape(-1, 3), np.ones(rows.size * w, dtype=bool)
         el, az, _ = self._angles(start, stop)
@@ -156,6 +166,15 @@ class LatLongDirections(DirectionSet):
         d[:, 1] = ce * np.cos(az)
         d[:, 2] = np.sin(el)
         return d, np.ones(el.size, dtype=bool)
+
+    def up_range(self, start, stop):
+        if stop <= start:
+            return None
+        w = self.width
+        rows = np.arange(start // w, (stop - 1) // w + 1)
+        # the same expressions as directions(): z = sin(el) of each row in the range
+        z = np.sin(0.5 * np.pi - np.pi * (rows + 0.5) / self.height)
+        return float(z.min()), float(z.max())
 
     def solid_angles(self, start, stop):
         _, _, r = self._angles(start, stop)
@@ -450,23 +469,26 @@ def _first_non_unit_numpy(d, tol):
     return int(np.flatnonzero(bad)[0]) if bad.any() else -1
 
 
-try:  # one fused pass (the evaluator's overhead budget is a few ms per 10⁶ directions)
-    import numba as _numba
+_FIRST_NON_UNIT = None
 
-    @_numba.njit(cache=True, nogil=True)
-    def _first_non_unit_numba(d, tol):  # pragma: no cover - compiled
-        for i in range(d.shape[0]):
-            n2 = d[i, 0] * d[i, 0] + d[i, 1] * d[i, 1] + d[i, 2] * d[i, 2]
-            if not abs(n2 - 1.0) <= tol:
-                return i
-        return -1
 
-    def _first_non_unit(d, tol):
-        """Index of the first row of ``d`` that is not a finite unit vector, or −1."""
-        return int(_first_non_unit_numba(np.ascontiguousarray(d, dtype=np.float64), tol))
+def _first_non_unit(d, tol):
+    """Index of the first row of ``d`` that is not a finite unit vector, or −1.
 
-except ImportError:  # pragma: no cover - numba is a declared dependency
-    _first_non_unit = _first_non_unit_numpy
+    One fused compiled pass (the evaluator's overhead budget is a few ms per 10⁶ directions);
+    the kernel is imported on first use so that ``import atmoscatter`` does not import numba.
+    """
+    global _FIRST_NON_UNIT
+    if _FIRST_NON_UNIT is None:
+        try:
+            from ._direction_kernels import _first_non_unit_numba  # noqa: PLC0415
+        except ImportError:  # pragma: no cover - numba is a declared dependency
+            _FIRST_NON_UNIT = False
+        else:
+            _FIRST_NON_UNIT = _first_non_unit_numba
+    if _FIRST_NON_UNIT is False:  # pragma: no cover
+        return _first_non_unit_numpy(d, tol)
+    return int(_FIRST_NON_UNIT(np.ascontiguousarray(d, dtype=np.float64), tol))
 
 
 class ArrayDirections(DirectionSet):

@@ -86,11 +86,10 @@ def atomic_write(path):
 
 
 def _chromaticities(colourspace: str):
-    import colour  # noqa: PLC0415
+    from .colour import _colourspace_data  # noqa: PLC0415  (shipped table: no colour-science)
 
-    cs = colour.RGB_COLOURSPACES[colourspace]
-    p = np.asarray(cs.primaries, dtype=float)
-    w = np.asarray(cs.whitepoint, dtype=float)
+    cs = _colourspace_data(colourspace)
+    p, w = cs["primaries"], cs["whitepoint"]
     return (p[0, 0], p[0, 1], p[1, 0], p[1, 1], p[2, 0], p[2, 1], w[0], w[1])
 
 

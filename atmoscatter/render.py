@@ -283,11 +283,23 @@ class _Context:
         ``alpha`` is a bool mask of the evaluated directions, or None when all were.
         """
         plan = self.plan
+        up = self.dset.up_range(start, stop) if plan.skip_below_horizon else None
+        if up is not None:
+            if up[1] < plan.horizon_z:  # all ground: no directions needed
+                n = stop - start
+                vals = np.empty((n, self.nval))
+                vals[...] = self.ground
+                spec = None
+                if self.nspec:
+                    spec = np.empty((n, self.nspec))
+                    spec[...] = self.ground_spec
+                return {"values": vals, "spectral": spec, "alpha": np.zeros(n, dtype=bool)}
         dirs, valid = self.dset.directions(start, stop)
         n = len(dirs)
-        todo = None if valid.all() else valid
+        # up_range() vouches that all are valid; all above the horizon: nothing to mask
+        todo = None if (up is not None or valid.all()) else valid
         below = None
-        if plan.skip_below_horizon:
+        if plan.skip_below_horizon and not (up is not None and up[0] >= plan.horizon_z):
             b = dirs[:, 2] < plan.horizon_z
             if todo is not None:
                 b &= todo
@@ -395,7 +407,8 @@ def _metadata(scene, plan, dset, adapter):
 
 
 def render(scene: Scene | None = None, *, directions=None, atmosphere=None,
-           batch_size: int | None = None, workers: int | None = None) -> SkyImage:
+           batch_size: int | None = None, workers: int | None = None,
+           progress=None) -> SkyImage:
     """Render ``scene`` (default: :class:`Scene` ()) to a :class:`SkyImage`.
 
     Parameters
@@ -413,6 +426,9 @@ def render(scene: Scene | None = None, *, directions=None, atmosphere=None,
         Directions per model call (default :data:`atmoscatter.scene.DEFAULT_BATCH_SIZE`).
     workers : int, optional
         Threads evaluating batches concurrently (default: the number of cores, ≤ 8).
+    progress : callable, optional
+        Called as ``progress(done, total)`` [directions] in the calling thread after each
+        batch (e.g. to drive a progress bar; the CLI uses tqdm).
 
     Returns
     -------
@@ -462,13 +478,19 @@ def render(scene: Scene | None = None, *, directions=None, atmosphere=None,
 
     bounds = dset.batches(p.batch_size)
     nw = _default_workers() if workers is None else max(1, int(workers))
+    done = 0
     if nw == 1 or len(bounds) == 1:
         for bd in bounds:
             work(bd)
+            if progress is not None:
+                done += bd[1] - bd[0]
+                progress(done, n)
     else:
         with ThreadPoolExecutor(max_workers=nw) as ex:
-            for _ in ex.map(work, bounds):
-                pass
+            for bd, _ in zip(bounds, ex.map(work, bounds), strict=True):
+                if progress is not None:
+                    done += bd[1] - bd[0]
+                    progress(done, n)
 
     if ctx.disc is not None and not ctx.disc_hit and ctx.nearest[1] >= 0:
         i = ctx.nearest[1]

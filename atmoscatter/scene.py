@@ -383,16 +383,13 @@ def _validate(s: Scene) -> None:
     _check(0 <= s.refinement <= 8, f"refinement must be in [0, 8], got {s.refinement!r}")
     if s.exposure is not None:
         _check(s.exposure > 0, f"exposure must be in (0, inf) m^2/cd, got {s.exposure!r}")
-    try:
-        import colour  # noqa: PLC0415
+    from .colour import _resolve_colourspace  # noqa: PLC0415  (shipped table: no colour-science)
 
-        if s.colourspace not in colour.RGB_COLOURSPACES:
-            raise ValueError(
-                f"colourspace={s.colourspace!r} is not valid; choose an RGB colourspace known "
-                "to colour-science, e.g. 'sRGB', 'ITU-R BT.2020', 'ACEScg'"
-            )
-    except ImportError:  # pragma: no cover
-        pass
+    if _resolve_colourspace(s.colourspace) is None:
+        raise ValueError(
+            f"colourspace={s.colourspace!r} is not valid; choose an RGB colourspace known "
+            "to colour-science, e.g. 'sRGB', 'ITU-R BT.2020', 'ACEScg'"
+        )
 
 
 # ----------------------------------------------------------------------------

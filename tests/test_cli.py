@@ -135,3 +135,56 @@ def test_batch_on_a_dask_scheduler_address(tmp_path, capsys):
     assert code == 0
     assert "2 rendered" in capsys.readouterr().out
     assert read_exr(tmp_path / "out" / "b.exr").header["sun_elevation_deg"] == "50.0"
+
+
+class _Tty:
+    """A stderr stand-in that says it is a terminal and keeps what is written."""
+
+    def __init__(self, tty=True):
+        self.tty, self.parts = tty, []
+
+    def isatty(self):
+        return self.tty
+
+    def write(self, s):
+        self.parts.append(s)
+
+    def flush(self):
+        pass
+
+
+def test_render_progress_is_off_when_quiet_or_not_a_terminal():
+    from atmoscatter.cli import _render_progress
+
+    for quiet, tty in ((True, True), (False, False)):
+        with _render_progress(quiet=quiet, stream=_Tty(tty)) as progress:
+            assert progress is None
+
+
+def test_render_progress_bar_on_a_terminal(monkeypatch):
+    pytest.importorskip("tqdm")
+    import atmoscatter.cli as cli
+
+    monkeypatch.setattr(cli, "PROGRESS_DELAY", 0.0)
+    err = _Tty()
+    with cli._render_progress(quiet=False, stream=err) as progress:
+        img = ac.render(ac.Scene(model="toy", width=32, height=16), batch_size=64,
+                        progress=progress)
+    text = "".join(err.parts)
+    assert img.alpha.size == 512 and "render" in text and "512" in text
+
+
+def test_render_progress_bar_waits_for_long_renders():
+    pytest.importorskip("tqdm")
+    from atmoscatter.cli import _render_progress
+
+    err = _Tty()
+    with _render_progress(quiet=False, stream=err) as progress:  # default delay: ~2 s
+        ac.render(ac.Scene(model="toy", width=32, height=16), batch_size=64, progress=progress)
+    assert "render" not in "".join(err.parts)  # a short render draws no bar
+
+
+def test_render_quiet_flag(tmp_path, capsys):
+    out = tmp_path / "sky.exr"
+    assert main(["render", "-o", str(out), *TOY, "--quiet"]) == 0
+    assert "wrote" in capsys.readouterr().out and out.exists()

@@ -139,3 +139,56 @@ def test_unknown_colourspace_lists_options():
 def test_non_numeric_is_type_error():
     with pytest.raises(TypeError, match="XYZ"):
         ac.XYZ_to_linear_rgb("white")
+
+
+# --- the shipped colourspace table (data/colourspaces.json) ------------------------------
+def test_colourspace_table_matches_colour_science():
+    """The table is written from colour-science (scripts/make_colourspace_table.py); here it
+    must agree with the installed one.  Tolerance: the matrices of some colourspaces are
+    computed by colour-science at import (normalised primary matrix: a 3×3 solve, condition
+    number < 1e3), so a different CPU/BLAS may change them by a few ulp: rtol 1e-12 covers
+    that with margin and is still far below any colour difference (1e-6)."""
+    colour = pytest.importorskip("colour")
+    from atmoscatter.colour import _colourspace_table
+
+    table = _colourspace_table()
+    cs = colour.RGB_COLOURSPACES
+    if colour.__version__ == table["colour_science_version"]:
+        assert list(cs.keys()) == list(table["colourspaces"])
+        assert dict(zip(cs.lower_keys(), cs.keys(), strict=True)) == table["lower"]
+        assert dict(zip(cs.slugified_keys(), cs.keys(), strict=True)) == table["slugified"]
+        assert dict(zip(cs.canonical_keys(), cs.keys(), strict=True)) == table["canonical"]
+    for name, entry in table["colourspaces"].items():
+        if name not in cs:  # pragma: no cover - a colour-science that dropped a colourspace
+            continue
+        c = cs[name]
+        for key, ref in (("matrix_XYZ_to_RGB", c.matrix_XYZ_to_RGB),
+                         ("primaries", c.primaries), ("whitepoint", c.whitepoint)):
+            np.testing.assert_allclose(entry[key], np.asarray(ref, dtype=float), rtol=1e-12,
+                                       atol=1e-15, err_msg=f"{name} {key}")
+
+
+def test_colourspace_names_are_resolved_as_colour_science_does():
+    colour = pytest.importorskip("colour")
+    from atmoscatter.colour import _resolve_colourspace
+
+    cs = colour.RGB_COLOURSPACES
+    probes = list(cs.keys()) + list(cs.lower_keys()) + list(cs.slugified_keys())
+    probes += list(cs.canonical_keys()) + [n.upper() for n in cs.keys()]
+    probes += ["sRGBB", "", "itu-r-bt-2020", "aces cg", "rec709", "not-a-space"]
+    for name in probes:
+        got = _resolve_colourspace(name)
+        assert (got is not None) == (name in cs), name
+        if got is not None:
+            assert cs[got] is cs[name], name
+    assert _resolve_colourspace(3) is None
+
+
+def test_aliases_render_like_the_canonical_name():
+    xyz = np.array([[0.3, 0.4, 0.5], [10.0, 20.0, 5.0]])
+    # the same matrix through the same code: equal to rounding
+    np.testing.assert_allclose(ac.XYZ_to_linear_rgb(xyz, "srgb"), ac.XYZ_to_linear_rgb(xyz),
+                               rtol=1e-15)
+    assert ac.Scene(colourspace="iturbt2020").colourspace == "iturbt2020"
+    with pytest.raises(ValueError, match=r"colourspace='sRGBB' is not valid"):
+        ac.Scene(colourspace="sRGBB")

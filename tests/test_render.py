@@ -638,3 +638,52 @@ def test_preetham_spectral_output_integrates_back_to_its_luminance(tmp_path):
     assert any(k.startswith("S0.") or "nm" in k for k in back.channels)
     p_rgb = plan(dataclasses.replace(s, output="rgb"))
     assert p_rgb.wavelengths == () and p_rgb.spectral_integration == "none"
+
+
+# ---------------------------------------------------------------------------
+# the render path close to its kernel (issue 11): shortcuts must not change the result
+# ---------------------------------------------------------------------------
+@pytest.mark.parametrize("h,bs", [(32, 64), (33, 64), (32, 100), (7, 10**6)])
+def test_latlong_up_range_is_that_of_its_directions(h, bs):
+    from atmoscatter.directions import LatLongDirections
+
+    dset = LatLongDirections(64, h)
+    for start, stop in dset.batches(bs) + [(5, 70), (64, 65)]:
+        lo, hi = dset.up_range(start, stop)
+        z = dset.directions(start, stop)[0][:, 2]
+        assert (lo, hi) == (float(z.min()), float(z.max()))  # the same expression: exact
+
+
+@pytest.mark.parametrize("kw", [
+    {},  # ground below the horizon left black
+    {"ground_albedo": 0.3, "alpha": True},  # (no sun disc: its pixel energy uses solid angles)
+    {"output": "xyz", "ground_albedo": 0.2},
+    {"height": 33, "batch_size": 100},  # batches that straddle the horizon
+])
+def test_latlong_shortcuts_agree_with_the_generic_path(kw):
+    """A lat-long render (whole-ground batches filled without generating directions, horizon
+    test skipped above it) equals the generic path (the same directions given as an array,
+    whose batches are masked direction by direction).  Tolerance: float32 output of identical
+    float64 values, so equal to 1 ulp of float32 (rtol 2e-7)."""
+    bs = kw.pop("batch_size", 256)
+    s = scene(height=kw.pop("height", 32), **kw)
+    img = ac.render(s, batch_size=bs)
+    ref = ac.render(s, directions=img.directions, batch_size=bs)
+    for layer in ("rgb", "xyz", "alpha"):
+        a, b = getattr(img, layer), getattr(ref, layer)
+        assert (a is None) == (b is None)
+        if a is not None:
+            np.testing.assert_allclose(a, b, rtol=2e-7, atol=0, err_msg=layer)
+    assert img.alpha[-1].max() == 0.0 and img.alpha[0].min() == 1.0
+
+
+@pytest.mark.parametrize("workers", [1, 3])
+def test_progress_callback_reports_every_batch(workers):
+    s = scene(width=32, height=16)
+    seen = []
+    img = ac.render(s, batch_size=64, workers=workers, progress=lambda d, t: seen.append((d, t)))
+    n = img.alpha.size
+    assert len(seen) == len(img.directions_set.batches(64)) == n // 64
+    assert all(t == n for _, t in seen)
+    done = [d for d, _ in seen]
+    assert done == sorted(done) and done[-1] == n
