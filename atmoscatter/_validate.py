@@ -191,37 +191,53 @@ def check_count(value, name: str, *, low: int = 1) -> int:
     return int(value)
 
 
-def check_output_file(path, *, suffixes=(".exr",), name: str = "output") -> str:
+def check_output_file(path, *, suffixes=(".exr",), name: str = "output", hint: str = "") -> str:
     """Check before any work that ``path`` can be written as a file of one of ``suffixes``.
 
-    Raises ``ValueError`` naming ``path`` when the extension is wrong, ``path`` is a
-    directory, or its directory cannot be created or written (a probe file is created and
-    removed there).  Returns ``path`` as a string.
+    Raises ``ValueError`` naming ``path`` when the extension is wrong (``hint`` is
+    appended to that message), ``path`` is a directory, or its directory cannot be
+    created or written.  Nothing is created.  Returns ``path`` as a string.
     """
     import os  # noqa: PLC0415
 
     path = os.fspath(path)
     if suffixes and not path.lower().endswith(tuple(s.lower() for s in suffixes)):
-        raise ValueError(f"{name} {path!r} must end in {' or '.join(suffixes)}")
+        raise ValueError(f"{name} {path!r} must end in {' or '.join(suffixes)}{hint}")
     if os.path.isdir(path):
         raise ValueError(f"{name} {path!r} is a directory; give a file name")
-    check_writable_dir(os.path.dirname(os.path.abspath(path)), name=name, target=path)
+    check_writable_dir(os.path.dirname(os.path.abspath(path)), name=name, target=path,
+                       create=False)
     return path
 
 
-def check_writable_dir(directory, *, name: str = "output directory", target=None) -> str:
-    """Create ``directory`` if needed and check a file can be written in it (``ValueError``)."""
+def check_writable_dir(directory, *, name: str = "output directory", target=None,
+                       create: bool = True) -> str:
+    """Check that files can be written in ``directory`` (``ValueError`` naming it).
+
+    With ``create`` the directory is made if missing; without, the nearest existing
+    ancestor must be a writable directory (nothing is left behind: the probe file
+    created to test writing is removed at once).
+    """
     import os  # noqa: PLC0415
     import tempfile  # noqa: PLC0415
 
     directory = os.fspath(directory)
     what = f"{name} {os.fspath(target if target is not None else directory)!r}"
+    probe_dir = directory
     try:
-        os.makedirs(directory, exist_ok=True)
-        fd, probe = tempfile.mkstemp(prefix=".atmoscatter-write-test.", dir=directory)
+        if create:
+            os.makedirs(directory, exist_ok=True)
+        else:
+            while not os.path.exists(probe_dir):
+                parent = os.path.dirname(probe_dir)
+                if parent == probe_dir:
+                    break
+                probe_dir = parent
+            if not os.path.isdir(probe_dir):
+                raise NotADirectoryError(20, f"{probe_dir!r} is not a directory")
+        fd, probe = tempfile.mkstemp(prefix=".atmoscatter-write-test.", dir=probe_dir)
         os.close(fd)
         os.remove(probe)
     except OSError as exc:
-        raise ValueError(f"cannot write {what}: {exc.strerror or exc} "
-                         f"(directory {directory!r})") from None
+        raise ValueError(f"cannot write {what}: {exc.strerror or exc}") from None
     return directory

@@ -153,8 +153,8 @@ def _check_render_outputs(args) -> None:
     """Before rendering: -o must be a writable .exr file, --preview a writable .png file."""
     from ._validate import check_output_file  # noqa: PLC0415
 
-    check_output_file(args.output, suffixes=(".exr",), name="-o/--output (an OpenEXR file; "
-                      "for a PNG use --preview)")
+    check_output_file(args.output, suffixes=(".exr",), name="-o/--output",
+                      hint=" (render writes OpenEXR; for a PNG add --preview sky.png)")
     if args.preview:
         check_output_file(args.preview, suffixes=(".png",), name="--preview")
 
@@ -243,7 +243,8 @@ def _cmd_preview(args, out) -> int:
     from ._validate import check_output_file  # noqa: PLC0415
     from .preview import write_preview  # noqa: PLC0415
 
-    check_output_file(args.output, suffixes=(".png",), name="-o/--output (a PNG file)")
+    check_output_file(args.output, suffixes=(".png",), name="-o/--output",
+                      hint=" (preview writes PNG)")
     write_preview(args.file, args.output, exposure=args.exposure, tone=args.tone,
                   alpha=args.alpha, transparency=args.transparency)
     print(f"wrote {args.output}", file=out)

@@ -228,6 +228,9 @@ def test_preview_transparency_must_be_positive_and_finite(value, tmp_path, capsy
                  "--transparency", value]) == 2
     _one_line_error(capsys, "transparency must be in (0, inf)", value)
     assert not png.exists()
+    nested = tmp_path / "new" / "dir" / "p.png"  # a failed command creates no directory
+    assert main(["preview", str(src), "-o", str(nested), "--transparency", value]) == 2
+    assert not (tmp_path / "new").exists()
 
 
 @pytest.mark.parametrize("command", ["render", "batch"])
