@@ -123,3 +123,121 @@ def clamp_cosine(mu):
 def safe_sqrt(x):
     """Square root of ``max(x, 0)``: guards rounding just below zero."""
     return np.sqrt(np.maximum(x, 0.0))
+
+
+# ----------------------------------------------------------------------------
+# sizes, counts and output paths (scenes, the CLI, batches)
+# ----------------------------------------------------------------------------
+#: Largest estimated size [bytes] of a render's output arrays (float32 layers) that a
+#: scene may ask for: 4 GiB, e.g. a 16384 × 8192 RGB lat-long map (2 GiB) passes, a
+#: 65536 × 32768 one (32 GiB) is refused before anything is allocated.  The environment
+#: variable ``ATMOSCATTER_MAX_OUTPUT_GIB`` raises or lowers the limit.
+MAX_OUTPUT_BYTES = 4 * 1024**3
+ENV_MAX_OUTPUT = "ATMOSCATTER_MAX_OUTPUT_GIB"
+
+
+def max_output_bytes() -> int:
+    """The output-size limit [bytes]: :data:`MAX_OUTPUT_BYTES` or ``$ATMOSCATTER_MAX_OUTPUT_GIB``."""
+    import math  # noqa: PLC0415
+    import os  # noqa: PLC0415
+
+    text = os.environ.get(ENV_MAX_OUTPUT, "").strip()
+    if not text:
+        return MAX_OUTPUT_BYTES
+    try:
+        gib = float(text)
+    except ValueError:
+        gib = math.nan
+    if not (math.isfinite(gib) and gib > 0):
+        raise ValueError(f"{ENV_MAX_OUTPUT} must be a number of GiB in (0, inf), got {text!r}")
+    return int(gib * 1024**3)
+
+
+def scene_directions(projection: str, width: int, height: int) -> int:
+    """Number of directions a scene evaluates (a dome: an upper bound before refinement)."""
+    if projection == "cubemap":
+        return 6 * width * width
+    if projection == "dome":
+        return 2 * width * (height + 1)
+    return width * height
+
+
+def check_image_size(projection: str, width: int, height: int, floats_per_direction: int) -> int:
+    """Raise ``ValueError`` if the estimated output arrays exceed :func:`max_output_bytes`.
+
+    ``floats_per_direction`` is the number of float32 values stored per direction (e.g. 4
+    for RGB + alpha).  Returns the estimate [bytes].
+    """
+    n = scene_directions(projection, width, height)
+    est = 4 * n * max(int(floats_per_direction), 1)
+    limit = max_output_bytes()
+    if est > limit:
+        size = f"{width}" if projection == "cubemap" else f"{width}x{height}"
+        raise ValueError(
+            f"width/height {size} ({projection}) means {n} directions and about "
+            f"{est / 1024**3:.1f} GiB of output arrays; the limit is {limit / 1024**3:.3g} GiB, "
+            f"i.e. at most {limit // (4 * max(int(floats_per_direction), 1))} directions for "
+            f"this output (set {ENV_MAX_OUTPUT} to change it) — ask for a smaller image"
+        )
+    return est
+
+
+def check_count(value, name: str, *, low: int = 1) -> int:
+    """An integer ``>= low`` (counts such as ``workers``), else ``ValueError``/``TypeError``."""
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+        raise TypeError(f"{name} must be an integer in [{low}, inf), got {value!r}")
+    if value < low:
+        raise ValueError(f"{name} must be an integer in [{low}, inf), got {value!r}")
+    return int(value)
+
+
+def check_output_file(path, *, suffixes=(".exr",), name: str = "output", hint: str = "") -> str:
+    """Check before any work that ``path`` can be written as a file of one of ``suffixes``.
+
+    Raises ``ValueError`` naming ``path`` when the extension is wrong (``hint`` is
+    appended to that message), ``path`` is a directory, or its directory cannot be
+    created or written.  Nothing is created.  Returns ``path`` as a string.
+    """
+    import os  # noqa: PLC0415
+
+    path = os.fspath(path)
+    if suffixes and not path.lower().endswith(tuple(s.lower() for s in suffixes)):
+        raise ValueError(f"{name} {path!r} must end in {' or '.join(suffixes)}{hint}")
+    if os.path.isdir(path):
+        raise ValueError(f"{name} {path!r} is a directory; give a file name")
+    check_writable_dir(os.path.dirname(os.path.abspath(path)), name=name, target=path,
+                       create=False)
+    return path
+
+
+def check_writable_dir(directory, *, name: str = "output directory", target=None,
+                       create: bool = True) -> str:
+    """Check that files can be written in ``directory`` (``ValueError`` naming it).
+
+    With ``create`` the directory is made if missing; without, the nearest existing
+    ancestor must be a writable directory (nothing is left behind: the probe file
+    created to test writing is removed at once).
+    """
+    import os  # noqa: PLC0415
+    import tempfile  # noqa: PLC0415
+
+    directory = os.fspath(directory)
+    what = f"{name} {os.fspath(target if target is not None else directory)!r}"
+    probe_dir = directory
+    try:
+        if create:
+            os.makedirs(directory, exist_ok=True)
+        else:
+            while not os.path.exists(probe_dir):
+                parent = os.path.dirname(probe_dir)
+                if parent == probe_dir:
+                    break
+                probe_dir = parent
+            if not os.path.isdir(probe_dir):
+                raise NotADirectoryError(20, f"{probe_dir!r} is not a directory")
+        fd, probe = tempfile.mkstemp(prefix=".atmoscatter-write-test.", dir=probe_dir)
+        os.close(fd)
+        os.remove(probe)
+    except OSError as exc:
+        raise ValueError(f"cannot write {what}: {exc.strerror or exc}") from None
+    return directory

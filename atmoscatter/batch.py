@@ -20,28 +20,34 @@ Public objects
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import datetime as _dt
 import glob
+import hashlib
 import itertools
 import json
 import os
 import re
+import signal
 import sys
+import threading
 import time
-from concurrent.futures import ProcessPoolExecutor, as_completed
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-__all__ = ["load_batch", "expand_sweep", "run_batch", "BatchResult", "BatchSummary"]
+__all__ = ["load_batch", "expand_sweep", "run_batch", "BatchResult", "BatchSummary",
+           "BatchInterrupted", "scene_fingerprint"]
 
 _NAME_RE = re.compile(r"^[A-Za-z0-9._+-]+$")
 
 
 @dataclass
 class BatchResult:
-    """Outcome of one scene: ``status`` is ``done``, ``skipped`` (already complete) or ``failed``."""
+    """Outcome of one scene: ``status`` is ``done``, ``skipped`` (already complete and up to
+    date), ``failed`` or ``unfinished`` (the batch was interrupted before it finished)."""
 
     name: str
     path: str
@@ -56,6 +62,8 @@ class BatchSummary:
 
     results: list = field(default_factory=list)
     seconds: float = 0.0
+    #: ``""``, or the signal that stopped the batch (``"SIGINT"``, ``"SIGTERM"``)
+    interrupted: str = ""
 
     def count(self, status: str) -> int:
         return sum(r.status == status for r in self.results)
@@ -74,6 +82,9 @@ class BatchSummary:
             f"{self.count('skipped')} already complete (skipped), {self.count('failed')} failed "
             f"in {self.seconds:.1f} s"
         ]
+        if self.interrupted:
+            lines.append(f"interrupted by {self.interrupted}: {self.count('unfinished')} scenes "
+                         "not finished (no partial files); run the same command again to resume")
         for r in self.failed:
             lines.append(f"  FAILED {r.name}: {r.error}")
         return "\n".join(lines)
@@ -81,7 +92,21 @@ class BatchSummary:
     def to_dict(self) -> dict:
         return {"seconds": self.seconds, "done": self.count("done"),
                 "skipped": self.count("skipped"), "failed": self.count("failed"),
+                "unfinished": self.count("unfinished"), "interrupted": self.interrupted,
                 "results": [asdict(r) for r in self.results]}
+
+
+class BatchInterrupted(KeyboardInterrupt):
+    """Raised by :func:`run_batch` when SIGINT (Ctrl-C) or SIGTERM stopped it.
+
+    The workers have been stopped and no partial file is left; :attr:`summary` says what
+    finished (also written to ``batch_summary.json``) and :attr:`signal_name` what stopped it.
+    """
+
+    def __init__(self, summary: BatchSummary, signal_name: str):
+        super().__init__(f"batch interrupted by {signal_name}")
+        self.summary = summary
+        self.signal_name = signal_name
 
 
 # ----------------------------------------------------------------------------
@@ -151,6 +176,44 @@ def _safe(v):
     return v
 
 
+def _read_csv(path) -> tuple[list, list]:
+    """(header, rows) of a batch CSV; every malformed line is an error naming it.
+
+    UTF-8 with or without a byte-order mark (as Excel writes it).  Every row must have as
+    many cells as the header (a line of empty cells is skipped); column names must be unique.
+    """
+    try:
+        with open(path, newline="", encoding="utf-8-sig") as fh:
+            lines = list(csv.reader(fh))
+    except UnicodeDecodeError as exc:
+        raise ValueError(f"{path}: not UTF-8 text ({exc.reason} at byte {exc.start}); save the "
+                         "table as CSV UTF-8") from None
+    except csv.Error as exc:
+        raise ValueError(f"{path}: not a valid CSV file ({exc})") from None
+    if not lines or not any(c.strip() for c in lines[0]):
+        raise ValueError(f"{path}: empty CSV (expected a header of scene fields)")
+    cols = [c.strip() for c in lines[0]]
+    for j, c in enumerate(cols):
+        if not c:
+            raise ValueError(f"{path}: line 1 (header): column {j + 1} has no name")
+        if c in cols[:j]:
+            raise ValueError(f"{path}: line 1 (header): duplicate column {c!r} "
+                             f"(columns {cols.index(c) + 1} and {j + 1})")
+    rows = []
+    for lineno, cells in enumerate(lines[1:], start=2):
+        if not any(c.strip() for c in cells):
+            continue  # blank line
+        if len(cells) != len(cols):
+            what = "more" if len(cells) > len(cols) else "fewer"
+            raise ValueError(f"{path}: line {lineno} has {len(cells)} cells, {what} than the "
+                             f"{len(cols)} columns of the header")
+        row = {k: v.strip() for k, v in zip(cols, cells, strict=True)}
+        if not row.get("name"):
+            row["name"] = f"scene_{len(rows):05d}"
+        rows.append(row)
+    return cols, rows
+
+
 def load_batch(path, *, overrides: dict | None = None) -> list[tuple[str, dict]]:
     """Read a batch file into ``[(name, fields), ...]`` (fields not yet validated).
 
@@ -160,8 +223,9 @@ def load_batch(path, *, overrides: dict | None = None) -> list[tuple[str, dict]]
     scene, with ``name``) and/or ``[sweep]`` (see :func:`expand_sweep`).
     ``overrides`` (e.g. the CLI's ``--set``) apply to every scene.
 
-    Unknown columns and duplicate names raise :class:`ValueError`; bad *values*
-    are reported per scene when the batch runs.
+    Unknown or duplicate columns, rows with more or fewer cells than the header,
+    non-UTF-8 text and duplicate names raise :class:`ValueError` naming the file
+    (and the line); bad *values* are reported per scene when the batch runs.
     """
     from .scene import Scene  # noqa: PLC0415
 
@@ -172,16 +236,7 @@ def load_batch(path, *, overrides: dict | None = None) -> list[tuple[str, dict]]
     rows: list[dict] = []
     base: dict = {}
     if ext == ".csv":
-        with open(path, newline="", encoding="utf-8") as fh:
-            reader = csv.DictReader(fh)
-            if not reader.fieldnames:
-                raise ValueError(f"{path}: empty CSV (expected a header of scene fields)")
-            cols = [c.strip() for c in reader.fieldnames]
-            for i, raw in enumerate(reader):
-                row = {k.strip(): (v or "").strip() for k, v in raw.items() if k is not None}
-                if not row.get("name"):
-                    row["name"] = f"scene_{i:05d}"
-                rows.append(row)
+        cols, rows = _read_csv(path)
     elif ext == ".toml":
         from .scene import _load_toml  # noqa: PLC0415
 
@@ -222,7 +277,38 @@ def load_batch(path, *, overrides: dict | None = None) -> list[tuple[str, dict]]
 # ----------------------------------------------------------------------------
 # running
 # ----------------------------------------------------------------------------
-def _render_one(name: str, fields: dict, out_path: str, threads: int = 1,
+#: EXR header attribute holding :func:`scene_fingerprint` of the scene a batch file was
+#: rendered from; resume re-renders a file whose fingerprint differs (or is missing).
+FINGERPRINT_KEY = "atmoscatter:scene_hash"
+
+
+def scene_fingerprint(scene) -> str:
+    """SHA-256 over what a rendered file depends on: every scene field, the package
+    version, the model's registration (name, description) and the measured defaults of
+    ``sampling = "auto"``; for a custom atmosphere file, its bytes.
+
+    Batch resume keeps an existing output only when the fingerprint stored in its header
+    (:data:`FINGERPRINT_KEY`) equals that of the scene asked for now.
+    """
+    from . import __version__  # noqa: PLC0415
+    from .models import MODELS  # noqa: PLC0415
+    from .scene import auto_sampling_rule, is_atmosphere_file  # noqa: PLC0415
+
+    adapter = MODELS.get(scene.model)
+    payload = {"scene": scene.to_strings(), "version": __version__,
+               "model": [scene.model, getattr(adapter, "description", "")],
+               "auto_sampling": auto_sampling_rule()}
+    if is_atmosphere_file(scene.atmosphere):
+        try:
+            with open(scene.atmosphere, "rb") as fh:
+                payload["atmosphere_file"] = hashlib.sha256(fh.read()).hexdigest()
+        except OSError:
+            payload["atmosphere_file"] = "unreadable"
+    text = json.dumps(payload, sort_keys=True, default=str)
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()
+
+
+def _render_one(name: str, fields: dict, out_path: str, threads: int | None = 1,
                 batch_size: int | None = None) -> BatchResult:
     """Render one scene to ``out_path``; never raises (errors become a failed result)."""
     t0 = time.perf_counter()
@@ -233,6 +319,7 @@ def _render_one(name: str, fields: dict, out_path: str, threads: int = 1,
 
         scene = Scene.from_dict(fields)
         img = render(scene, workers=threads, batch_size=batch_size)
+        img.metadata[FINGERPRINT_KEY] = scene_fingerprint(scene)
         write_exr(out_path, img)
         return BatchResult(name, out_path, "done", time.perf_counter() - t0)
     except Exception as exc:  # failure isolation: report and carry on
@@ -241,13 +328,143 @@ def _render_one(name: str, fields: dict, out_path: str, threads: int = 1,
                            f"{type(exc).__name__}: {msg}")
 
 
+def _up_to_date(path: str, fields: dict) -> bool:
+    """True if ``path`` is a complete EXR rendered from exactly this scene (fingerprint)."""
+    from .exr import read_exr  # noqa: PLC0415
+    from .scene import Scene  # noqa: PLC0415
+
+    if not os.path.isfile(path):
+        return False
+    try:
+        img = read_exr(path)
+        if not img.channels:
+            return False
+        return img.header.get(FINGERPRINT_KEY) == scene_fingerprint(Scene.from_dict(fields))
+    except Exception:  # unreadable, truncated, or a scene that no longer validates
+        return False
+
+
+# --- worker processes ---------------------------------------------------------
+_TERMINATING = False
+
+
+def _worker_sigterm(signum, frame):
+    """SIGTERM in a worker: abort the current render (its temporary file is removed on the
+    way out) and leave the process."""
+    global _TERMINATING
+    _TERMINATING = True
+    raise SystemExit(128 + signum)
+
+
+def _watch_parent(parent_pid: int, poll: float = 0.25, grace: float = 3.0) -> None:
+    """Thread in each worker: if the parent process dies (even by SIGKILL), stop too."""
+    while os.getppid() == parent_pid:
+        time.sleep(poll)
+    with contextlib.suppress(OSError):
+        os.kill(os.getpid(), signal.SIGTERM)  # cleans up via _worker_sigterm
+    time.sleep(grace)
+    os._exit(1)  # the main thread was stuck in a long C call
+
+
+def _worker_init(parent_pid: int) -> None:
+    # Ctrl-C reaches the whole process group: the parent alone decides (it stops the
+    # workers with SIGTERM), so a worker does not turn it into a failed scene and go on.
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, _worker_sigterm)
+    threading.Thread(target=_watch_parent, args=(parent_pid,), daemon=True,
+                     name="atmoscatter-parent-watch").start()
+
+
+def _render_in_worker(*args) -> BatchResult:
+    try:
+        return _render_one(*args)
+    except BaseException:
+        if _TERMINATING:
+            os._exit(143)  # not back to the executor's loop: no further scene
+        raise
+
+
+def _stop_pool(ex: ProcessPoolExecutor, timeout: float = 2.0) -> None:
+    """Cancel what has not started, SIGTERM the workers, wait ≤ ``timeout``, then SIGKILL."""
+    procs = list((getattr(ex, "_processes", None) or {}).values())
+    ex.shutdown(wait=False, cancel_futures=True)
+    for p in procs:
+        with contextlib.suppress(Exception):
+            p.terminate()
+    deadline = time.monotonic() + timeout
+    for p in procs:
+        with contextlib.suppress(Exception):
+            p.join(max(deadline - time.monotonic(), 0.0))
+    for p in procs:
+        with contextlib.suppress(Exception):
+            if p.is_alive():
+                p.kill()
+                p.join(1.0)
+
+
+class _Stop(KeyboardInterrupt):
+    def __init__(self, signum):
+        super().__init__(signal.Signals(signum).name)
+        self.signum = signum
+
+
+@contextlib.contextmanager
+def _stop_on_signals():
+    """Turn SIGINT and SIGTERM into :class:`_Stop` in the main thread while a batch runs."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def handler(signum, frame):
+        raise _Stop(signum)
+
+    old = {}
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        try:
+            old[sig] = signal.signal(sig, handler)
+        except (ValueError, OSError):  # pragma: no cover - not settable here
+            pass
+    try:
+        yield
+    finally:
+        for sig, h in old.items():
+            signal.signal(sig, h)
+
+
+def _remove_temporaries(out_dir: str) -> None:
+    for tmp in glob.glob(os.path.join(glob.escape(out_dir), ".*.exr.*.tmp")):
+        with contextlib.suppress(OSError):
+            os.remove(tmp)
+
+
+# --- progress -----------------------------------------------------------------
 class _Progress:
-    def __init__(self, total, stream):
+    """A tqdm bar on a terminal; one line per scene on an explicitly given non-terminal
+    stream; nothing when ``stream`` is None."""
+
+    def __init__(self, total, stream, *, lines: bool):
         self.total, self.stream, self.k, self.t0 = total, stream, 0, time.perf_counter()
+        self.bar = None
+        self.lines = lines and stream is not None
+        if stream is not None and _isatty(stream):
+            try:
+                from tqdm import tqdm  # noqa: PLC0415
+
+                self.bar = tqdm(total=total, file=stream, unit="scene", dynamic_ncols=True,
+                                desc="batch")
+                self.lines = False
+            except ImportError:  # pragma: no cover - tqdm is a dependency
+                self.lines = True
 
     def update(self, r: BatchResult):
         self.k += 1
-        if self.stream is None:
+        if self.bar is not None:
+            if r.status == "failed":
+                self.bar.write(f"FAILED {r.name}: {r.error}", file=self.stream)
+            self.bar.set_postfix_str(f"{r.name}: {r.status}", refresh=False)
+            self.bar.update(1)
+            return
+        if not self.lines:
             return
         width = 24
         filled = int(width * self.k / max(self.total, 1))
@@ -257,6 +474,17 @@ class _Progress:
         extra = f" ({r.error})" if r.status == "failed" else ""
         print(f"[{bar}] {self.k}/{self.total} {r.name}: {r.status}{extra} "
               f"| {el:.1f} s elapsed, ~{eta:.0f} s left", file=self.stream, flush=True)
+
+    def close(self):
+        if self.bar is not None:
+            self.bar.close()
+
+
+def _isatty(stream) -> bool:
+    try:
+        return bool(stream.isatty())
+    except (AttributeError, ValueError):
+        return False
 
 
 def run_batch(items, out_dir, *, workers: int = 1, client=None, scheduler: str | None = None,
@@ -268,18 +496,24 @@ def run_batch(items, out_dir, *, workers: int = 1, client=None, scheduler: str |
     items : list of (str, dict)
         Scene names (file stems) and fields.
     out_dir : str
-        Output directory (created); scene ``name`` goes to ``out_dir/name.exr``.
+        Output directory (created; checked to be writable before anything is rendered);
+        scene ``name`` goes to ``out_dir/name.exr``.
     workers : int
-        Local processes (1 = this process).
+        Local processes (1 = this process), ≥ 1.
     client : dask.distributed.Client, optional
         Run on this Dask cluster.
     scheduler : str, optional
         Address of a Dask scheduler to connect to (``tcp://host:8786``).
     resume : bool
-        Skip scenes whose output is already a complete EXR.  Leftover temporary
-        files of interrupted writes are removed; truncated outputs are redone.
+        Skip scenes whose output is a complete EXR rendered from the same scene: its
+        header's :func:`scene_fingerprint` (scene fields, package version, model
+        defaults) must match, so a row whose values changed is rendered again.
+        Leftover temporary files of interrupted writes are removed; truncated outputs
+        are redone.
     progress : bool or file
-        Print a progress line per finished scene (to stderr, or to the file given).
+        ``True``: a progress bar (tqdm) on stderr when stderr is a terminal, nothing
+        otherwise.  A file: the bar if it is a terminal, else one line per finished
+        scene.  ``False``/``None``: silent.
     batch_size : int, optional
         Directions per model call inside each render.
 
@@ -287,30 +521,75 @@ def run_batch(items, out_dir, *, workers: int = 1, client=None, scheduler: str |
     -------
     BatchSummary
         Also written to ``out_dir/batch_summary.json``.
+
+    Raises
+    ------
+    BatchInterrupted
+        SIGINT (Ctrl-C) or SIGTERM arrived (main thread only): scenes not yet started
+        are cancelled, running workers are stopped within about two seconds, no partial
+        file is left, and the exception's ``summary`` (also written to
+        ``batch_summary.json``) says what finished.  Worker processes also stop by
+        themselves if this process dies.
     """
-    from .exr import atomic_write, is_complete_exr  # noqa: PLC0415
+    from ._validate import check_count, check_writable_dir  # noqa: PLC0415
 
     t0 = time.perf_counter()
-    out_dir = os.fspath(out_dir)
-    os.makedirs(out_dir, exist_ok=True)
-    for tmp in glob.glob(os.path.join(out_dir, ".*.exr.*.tmp")):  # interrupted writes
-        try:
-            os.remove(tmp)
-        except OSError:  # pragma: no cover
-            pass
+    if client is None and not scheduler:
+        workers = check_count(workers, "workers")
+    out_dir = check_writable_dir(os.fspath(out_dir), name="output directory")
+    _remove_temporaries(out_dir)  # interrupted writes of an earlier run
     stream = sys.stderr if progress is True else (progress or None)
     results: dict[str, BatchResult] = {}
     todo = []
-    for name, fields in items:
-        path = os.path.join(out_dir, f"{name}.exr")
-        if resume and is_complete_exr(path):
-            results[name] = BatchResult(name, path, "skipped")
-        else:
-            todo.append((name, fields, path))
-    bar = _Progress(len(items), stream)
-    for r in results.values():
-        bar.update(r)
+    bar = _Progress(len(items), stream, lines=progress is not True)
+    stopped = ""
+    try:
+        with _stop_on_signals():
+            for name, fields in items:
+                path = os.path.join(out_dir, f"{name}.exr")
+                if resume and _up_to_date(path, fields):
+                    results[name] = BatchResult(name, path, "skipped")
+                else:
+                    todo.append((name, fields, path))
+            for r in results.values():
+                bar.update(r)
 
+            def record(r):
+                results[r.name] = r
+                bar.update(r)
+
+            _run(todo, record, workers=workers, client=client, scheduler=scheduler,
+                 batch_size=batch_size)
+    except _Stop as exc:
+        stopped = signal.Signals(exc.signum).name
+    except KeyboardInterrupt:
+        stopped = "SIGINT"
+    finally:
+        bar.close()
+    if stopped:
+        _remove_temporaries(out_dir)  # every worker is gone: nothing is being written
+        for name, fields in items:
+            if name not in results:
+                # a worker may have finished the file just before it was stopped
+                path = os.path.join(out_dir, f"{name}.exr")
+                results[name] = BatchResult(
+                    name, path, "done" if _up_to_date(path, fields) else "unfinished")
+
+    ordered = [results[n] for n, _ in items if n in results]
+    summary = BatchSummary(ordered, time.perf_counter() - t0, interrupted=stopped)
+    from .exr import atomic_write  # noqa: PLC0415
+
+    with atomic_write(os.path.join(out_dir, "batch_summary.json")) as tmp:
+        with open(tmp, "w", encoding="utf-8") as fh:
+            json.dump(summary.to_dict(), fh, indent=1)
+    if stopped:
+        raise BatchInterrupted(summary, stopped)
+    return summary
+
+
+def _run(todo, record, *, workers, client, scheduler, batch_size) -> None:
+    """Render ``todo`` here, in local processes or on Dask; ``record`` each result."""
+    own_client = False
     if client is None and scheduler:
         try:
             from dask.distributed import Client  # noqa: PLC0415
@@ -320,49 +599,57 @@ def run_batch(items, out_dir, *, workers: int = 1, client=None, scheduler: str |
             ) from exc
         client = Client(scheduler)
         own_client = True
-    else:
-        own_client = False
-
     try:
         if client is not None:
-            from dask.distributed import as_completed as dask_completed  # noqa: PLC0415
-
-            names, futures = {}, []
-            for n, f, p in todo:
-                fut = client.submit(_render_one, n, f, p, 1, batch_size, pure=False)
-                names[fut.key] = (n, p)
-                futures.append(fut)
-            for fut in dask_completed(futures):
-                n, p = names[fut.key]
-                try:
-                    r = fut.result()
-                except Exception as exc:  # worker lost, etc.
-                    r = BatchResult(n, p, "failed", 0.0, f"{type(exc).__name__}: {exc}")
-                results[r.name] = r
-                bar.update(r)
+            _run_dask(todo, record, client, batch_size)
         elif workers > 1 and len(todo) > 1:
-            with ProcessPoolExecutor(max_workers=workers) as ex:
-                futs = {ex.submit(_render_one, n, f, p, 1, batch_size): (n, p) for n, f, p in todo}
-                for fut in as_completed(futs):
-                    n, p = futs[fut]
-                    try:
-                        r = fut.result()
-                    except Exception as exc:  # a crashed worker process
-                        r = BatchResult(n, p, "failed", 0.0, f"{type(exc).__name__}: {exc}")
-                    results[n] = r
-                    bar.update(r)
+            _run_processes(todo, record, workers, batch_size)
         else:
             for n, f, p in todo:
-                r = _render_one(n, f, p, None, batch_size)
-                results[n] = r
-                bar.update(r)
+                record(_render_one(n, f, p, None, batch_size))
     finally:
         if own_client:
             client.close()
 
-    ordered = [results[n] for n, _ in items if n in results]
-    summary = BatchSummary(ordered, time.perf_counter() - t0)
-    with atomic_write(os.path.join(out_dir, "batch_summary.json")) as tmp:
-        with open(tmp, "w", encoding="utf-8") as fh:
-            json.dump(summary.to_dict(), fh, indent=1)
-    return summary
+
+def _run_dask(todo, record, client, batch_size) -> None:
+    from dask.distributed import as_completed as dask_completed  # noqa: PLC0415
+
+    names, futures = {}, []
+    for n, f, p in todo:
+        fut = client.submit(_render_one, n, f, p, 1, batch_size, pure=False)
+        names[fut.key] = (n, p)
+        futures.append(fut)
+    try:
+        for fut in dask_completed(futures):
+            n, p = names[fut.key]
+            try:
+                r = fut.result()
+            except Exception as exc:  # worker lost, etc.
+                r = BatchResult(n, p, "failed", 0.0, f"{type(exc).__name__}: {exc}")
+            record(r)
+    except BaseException:
+        with contextlib.suppress(Exception):
+            client.cancel(futures)
+        raise
+
+
+def _run_processes(todo, record, workers, batch_size) -> None:
+    ex = ProcessPoolExecutor(max_workers=min(workers, len(todo)), initializer=_worker_init,
+                             initargs=(os.getpid(),))
+    try:
+        futs = {ex.submit(_render_in_worker, n, f, p, 1, batch_size): (n, p) for n, f, p in todo}
+        pending = set(futs)
+        while pending:
+            done, pending = wait(pending, timeout=0.5, return_when=FIRST_COMPLETED)
+            for fut in done:
+                n, p = futs[fut]
+                try:
+                    r = fut.result()
+                except Exception as exc:  # a crashed worker process
+                    r = BatchResult(n, p, "failed", 0.0, f"{type(exc).__name__}: {exc}")
+                record(r)
+    except BaseException:
+        _stop_pool(ex)
+        raise
+    ex.shutdown(wait=True)

@@ -33,6 +33,17 @@ from .compare import add_compare_parser, run_compare
 __all__ = ["main"]
 
 
+def _count(text: str) -> int:
+    """argparse type of ``--workers``/``--batch-size``: an integer >= 1."""
+    try:
+        value = int(text)
+    except ValueError:
+        value = None
+    if value is None or value < 1:
+        raise argparse.ArgumentTypeError(f"must be an integer in [1, inf), got {text!r}")
+    return value
+
+
 def _parser() -> argparse.ArgumentParser:
     from . import __version__  # noqa: PLC0415
 
@@ -55,8 +66,8 @@ def _parser() -> argparse.ArgumentParser:
                    help="override a scene field (repeatable)")
     r.add_argument("--explain", action="store_true", help="print the plan (and render if -o is given)")
     r.add_argument("--preview", metavar="PNG", help="also write a tone-mapped PNG preview")
-    r.add_argument("--workers", type=int, default=None, help="threads (default: cores)")
-    r.add_argument("--batch-size", type=int, default=None, help="directions per model call")
+    r.add_argument("--workers", type=_count, default=None, help="threads (default: cores)")
+    r.add_argument("--batch-size", type=_count, default=None, help="directions per model call")
     r.add_argument("--quiet", action="store_true",
                    help="no progress bar (shown on a terminal when a render takes over ~2 s)")
     common(r)
@@ -66,28 +77,31 @@ def _parser() -> argparse.ArgumentParser:
     b.add_argument("-o", "--output", required=True, help="output directory")
     b.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                    help="override a field in every scene (repeatable)")
-    b.add_argument("--workers", type=int, default=1, help="local processes (default 1)")
+    b.add_argument("--workers", type=_count, default=1, help="local processes (default 1)")
     g = b.add_mutually_exclusive_group()
     g.add_argument("--scheduler", metavar="ADDRESS", help="Dask scheduler address (tcp://host:8786)")
     g.add_argument("--dask", action="store_true",
                    help="start a local Dask cluster with --workers workers")
     b.add_argument("--no-resume", action="store_true", help="re-render complete outputs too")
-    b.add_argument("--quiet", action="store_true", help="no progress lines")
+    b.add_argument("--quiet", action="store_true",
+                   help="no progress bar (there is none either when stderr is not a terminal)")
     common(b)
 
     i = sub.add_parser("info", help="show the metadata of an EXR sky map")
-    i.add_argument("file")
+    i.add_argument("file", help="EXR file")
     i.add_argument("--json", action="store_true", help="print the header as JSON")
     common(i)
 
     v = sub.add_parser("preview", help="write a tone-mapped PNG of an EXR sky map")
-    v.add_argument("file")
+    v.add_argument("file", help="EXR sky map")
     v.add_argument("-o", "--output", required=True, help="output PNG file")
     v.add_argument("--exposure", type=float, default=None, help="[m^2/cd]; default automatic")
-    v.add_argument("--tone", choices=["exponential", "reinhard", "clip"], default=None)
+    v.add_argument("--tone", choices=["exponential", "reinhard", "clip"], default=None,
+                   help="tone curve (default: the scene's, else exponential)")
     v.add_argument("--alpha", choices=["none", "mask", "sky"], default="none",
                    help="PNG alpha: none, the map's mask, or seed 002's (r+g+b)^transparency")
-    v.add_argument("--transparency", type=float, default=0.5)
+    v.add_argument("--transparency", type=float, default=0.5,
+                   help="exponent of --alpha sky, in (0, inf) (default 0.5)")
     common(v)
 
     sub.add_parser("models", help="list the available sky models")
@@ -125,6 +139,7 @@ def _cmd_render(args, out) -> int:
             return 0
     if not args.output:
         raise ValueError("render needs an output file: -o sky.exr (or --explain to only plan)")
+    _check_render_outputs(args)
     t0 = time.perf_counter()
     with _render_progress(quiet=args.quiet) as progress:
         img = render(scene, workers=args.workers, batch_size=args.batch_size, progress=progress)
@@ -174,18 +189,22 @@ def _render_progress(*, quiet: bool, stream=None):
             bar.close()
 
 
-def _cmd_batch(args, out) -> int:
-    from .batch import load_batch, run_batch  # noqa: PLC0415
+def _check_render_outputs(args) -> None:
+    """Before rendering: -o must be a writable .exr file, --preview a writable .png file."""
+    from ._validate import check_output_file  # noqa: PLC0415
 
-    overrides = {}
-    for item in args.set:
-        if "=" not in item:
-            raise ValueError(f"--set expects key=value, got {item!r}")
-        k, v = item.split("=", 1)
-        overrides[k.strip()] = v.strip()
+    check_output_file(args.output, suffixes=(".exr",), name="-o/--output",
+                      hint=" (render writes OpenEXR; for a PNG add --preview sky.png)")
+    if args.preview:
+        check_output_file(args.preview, suffixes=(".png",), name="--preview")
+
+
+def _cmd_batch(args, out) -> int:
+    from .batch import BatchInterrupted, load_batch, run_batch  # noqa: PLC0415
+    from .scene import _parse_assignments  # noqa: PLC0415
+
+    overrides = _parse_assignments(args.set)
     items = load_batch(args.scenes, overrides=overrides)
-    if args.workers < 1:
-        raise ValueError(f"--workers must be >= 1, got {args.workers}")
     client = None
     cluster = None
     if args.dask:
@@ -199,6 +218,9 @@ def _cmd_batch(args, out) -> int:
         summary = run_batch(items, args.output, workers=args.workers, client=client,
                             scheduler=args.scheduler, resume=not args.no_resume,
                             progress=not args.quiet)
+    except BatchInterrupted as exc:
+        print(exc.summary.text(), file=out)
+        return 143 if exc.signal_name == "SIGTERM" else 130
     finally:
         if client is not None:
             client.close()
@@ -258,8 +280,11 @@ def _cmd_info(args, out) -> int:
 
 
 def _cmd_preview(args, out) -> int:
+    from ._validate import check_output_file  # noqa: PLC0415
     from .preview import write_preview  # noqa: PLC0415
 
+    check_output_file(args.output, suffixes=(".png",), name="-o/--output",
+                      hint=" (preview writes PNG)")
     write_preview(args.file, args.output, exposure=args.exposure, tone=args.tone,
                   alpha=args.alpha, transparency=args.transparency)
     print(f"wrote {args.output}", file=out)
@@ -339,6 +364,25 @@ def _cmd_cache(args, out) -> int:
     return 0
 
 
+def _show_warning(message, category, filename, lineno, file=None, line=None):
+    """Warnings as one line: ``atmoscatter: warning: ...``."""
+    text = " ".join(str(message).split())
+    print(f"atmoscatter: warning: {text}", file=sys.stderr if file is None else file)
+
+
+def _silence_stdout() -> None:
+    """The reader of stdout went away: point stdout at /dev/null so the interpreter's
+    final flush does not print a second BrokenPipeError."""
+    import os  # noqa: PLC0415
+
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        os.close(devnull)
+    except (OSError, ValueError, AttributeError):  # pragma: no cover - no real stdout
+        pass
+
+
 def main(argv=None) -> int:
     """Entry point of the ``atmoscatter`` console script; returns the exit status."""
     parser = _parser()
@@ -354,7 +398,12 @@ def main(argv=None) -> int:
                 "preview": _cmd_preview, "models": _cmd_models, "compare": run_compare,
                 "cache": _cmd_cache}
     try:
-        return commands[args.command](args, sys.stdout)
+        with warnings.catch_warnings():
+            warnings.showwarning = _show_warning
+            return commands[args.command](args, sys.stdout)
+    except BrokenPipeError:  # e.g. `atmoscatter info --json f.exr | head`
+        _silence_stdout()
+        return 141
     except KeyboardInterrupt:
         print("atmoscatter: interrupted", file=sys.stderr)
         return 130

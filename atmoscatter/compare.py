@@ -217,6 +217,9 @@ class Comparison:
         ΔE00 per pixel, NaN where excluded.
     info : dict
         Provenance (files, scene, layout, options) copied into the JSON summary.
+    nonfinite_other, nonfinite_reference : int
+        Pixels (inside the mask) where that image is NaN or infinite: excluded from the
+        statistics, counted and reported.
     """
 
     luminance_relative_error: dict
@@ -231,6 +234,8 @@ class Comparison:
     delta_e_map: np.ndarray | None = field(repr=False, default=None)
     white_luminance: float | None = None
     info: dict = field(default_factory=dict)
+    nonfinite_other: int = 0
+    nonfinite_reference: int = 0
 
     def to_dict(self) -> dict:
         """JSON-ready summary (the content of ``summary.json``)."""
@@ -250,6 +255,8 @@ class Comparison:
             },
             "pixels_compared": self.pixels_compared,
             "pixels_total": self.pixels_total,
+            "pixels_not_finite": {"other": self.nonfinite_other,
+                                  "reference": self.nonfinite_reference},
             "weighting": self.weighting,
             "definitions": {
                 "luminance_relative_error": "|Y_other - Y_ours| / Y_ours, no rescaling",
@@ -272,6 +279,9 @@ class Comparison:
             f"(statistics weighted by {self.weighting.replace('_', ' ')})",
             f"luminance relative error (no rescaling): median {f(e, 'median')}, "
             f"p95 {f(e, 'p95')}, max {f(e, 'max')}",
+            *([f"pixels not finite (NaN/inf, excluded): {self.nonfinite_other} in the other "
+               f"image, {self.nonfinite_reference} in the reference"]
+              if self.nonfinite_other or self.nonfinite_reference else []),
             f"best-fit scale ({self.scale_method}): {self.scale:.6g}",
             f"after scaling: median {f(s, 'median')}, p95 {f(s, 'p95')}, max {f(s, 'max')}",
         ]
@@ -379,16 +389,22 @@ def compare_images(
         if w_all.shape != shape:
             raise ValueError(f"weights must have the image shape {shape}, got {w_all.shape}")
         weighting = "solid_angle"
-    valid = np.isfinite(y_o) & np.isfinite(y_r) & (y_r > 0) & (w_all > 0)
-    if xyz_o is not None:
-        valid &= np.all(np.isfinite(xyz_o), axis=-1)
-    if xyz_r is not None:
-        valid &= np.all(np.isfinite(xyz_r), axis=-1)
+    fin_o = np.isfinite(y_o) if xyz_o is None else np.all(np.isfinite(xyz_o), axis=-1)
+    fin_o &= np.isfinite(y_o)
+    fin_r = np.isfinite(y_r) if xyz_r is None else np.all(np.isfinite(xyz_r), axis=-1)
+    fin_r &= np.isfinite(y_r)
+    valid = fin_o & fin_r & (w_all > 0)
+    with np.errstate(invalid="ignore"):
+        valid &= y_r > 0
+    inside = np.ones(shape, dtype=bool)
     if mask is not None:
         m = np.asarray(mask, dtype=bool)
         if m.shape != shape:
             raise ValueError(f"mask must have the image shape {shape}, got {m.shape}")
         valid &= m
+        inside = m
+    nonfinite_o = int(np.count_nonzero(inside & ~fin_o))
+    nonfinite_r = int(np.count_nonzero(inside & ~fin_r))
     n = int(valid.sum())
     if n == 0:
         raise ValueError("no pixel to compare: the reference luminance is not positive (or not "
@@ -425,6 +441,8 @@ def compare_images(
         delta_e_map=de_map,
         white_luminance=white,
         info=dict(info or {}),
+        nonfinite_other=nonfinite_o,
+        nonfinite_reference=nonfinite_r,
     )
 
 

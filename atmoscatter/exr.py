@@ -71,9 +71,12 @@ def atomic_write(path):
     """
     path = os.fspath(path)
     directory = os.path.dirname(os.path.abspath(path))
-    os.makedirs(directory, exist_ok=True)
     base = os.path.basename(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{base}.", suffix=".tmp", dir=directory)
+    try:
+        os.makedirs(directory, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(prefix=f".{base}.", suffix=".tmp", dir=directory)
+    except OSError as exc:  # name the file asked for, not the temporary one
+        raise OSError(exc.errno, f"cannot write {path!r}: {exc.strerror or exc}") from None
     os.close(fd)
     try:
         yield tmp
@@ -253,7 +256,7 @@ def read_exr(path) -> ExrImage:
     if not os.path.isfile(path):
         raise ValueError(f"{path!r} does not exist or is not a file")
     try:
-        with OpenEXR.File(path) as f:
+        with _c_output_captured(), OpenEXR.File(path) as f:
             header = dict(f.header())
             chans = {}
             for name, ch in f.channels().items():
@@ -268,6 +271,33 @@ def read_exr(path) -> ExrImage:
     except Exception as exc:  # OpenEXR raises various types for broken files
         raise ValueError(f"{path!r} is not a readable OpenEXR file ({exc})") from None
     return ExrImage(chans, header)
+
+
+@contextlib.contextmanager
+def _c_output_captured():
+    """Send what the OpenEXR C++ library prints to file descriptors 1 and 2 (diagnostics
+    of broken files, several lines each) to a scratch file instead of the terminal; the
+    error raised for the file says what is wrong in one line."""
+    import sys  # noqa: PLC0415
+
+    try:
+        fds = [1, 2]
+        saved = [os.dup(fd) for fd in fds]
+    except OSError:  # no such descriptors (embedded interpreters)
+        yield
+        return
+    for stream in (sys.stdout, sys.stderr):
+        with contextlib.suppress(Exception):
+            stream.flush()
+    with tempfile.TemporaryFile() as sink:
+        try:
+            for fd in fds:
+                os.dup2(sink.fileno(), fd)
+            yield
+        finally:
+            for fd, old in zip(fds, saved, strict=True):
+                os.dup2(old, fd)
+                os.close(old)
 
 
 def is_complete_exr(path) -> bool:

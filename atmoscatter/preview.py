@@ -85,10 +85,13 @@ def preview_array(rgb, *, exposure=None, tone="exponential", alpha="none", mask=
     mask : array_like (h, w), optional
         Alpha of the map (used by ``alpha="mask"`` and by the auto exposure).
     transparency : float
-        Exponent of seed 002's alpha ``(r + g + b)^transparency``.
+        Exponent of seed 002's alpha ``(r + g + b)^transparency``, in (0, inf).
     """
     if alpha not in ALPHAS:
         raise ValueError(f"alpha={alpha!r} is not valid; choose one of {sorted(ALPHAS)}")
+    t = float(transparency)
+    if not (math.isfinite(t) and t > 0.0):
+        raise ValueError(f"transparency must be in (0, inf), got {transparency!r}")
     a = np.asarray(rgb, dtype=np.float64)
     if a.ndim == 2:
         a = np.repeat(a[..., None], 3, axis=-1)

@@ -36,9 +36,10 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import __version__
+from ._validate import check_count
 from .directions import ArrayDirections, DirectionSet, direction_set, mirror_pairs
 from .models import get_model
-from .scene import Plan, Scene
+from .scene import Plan, Scene, as_scene
 from .scene import plan as make_plan
 
 __all__ = ["SkyImage", "render", "render_batches", "sun_disc_radiance", "LIMB_DARKENING_U"]
@@ -413,8 +414,10 @@ def render(scene: Scene | None = None, *, directions=None, atmosphere=None,
 
     Parameters
     ----------
-    scene : Scene, optional
-        What to render; ``None`` renders the documented default scene.
+    scene : Scene, dict, str or path-like, optional
+        What to render; ``None`` renders the documented default scene, a dict of
+        fields goes through :meth:`Scene.from_dict`, a path through
+        :func:`~atmoscatter.load_scene`.
     directions : array_like (..., 3), optional
         Evaluate these unit view directions (local frame) instead of the
         scene's projection (e.g. the vertices of your own sky mesh); the
@@ -446,8 +449,7 @@ def render(scene: Scene | None = None, *, directions=None, atmosphere=None,
     put into the pixel closest to the sun (radiance ``E·T/Ω_pixel``), so the
     map's irradiance stays right.
     """
-    if scene is None:
-        scene = Scene()
+    scene = as_scene(scene)  # a dict of fields or a scene file work too
     p = make_plan(scene, batch_size=batch_size, atmosphere=atmosphere)
     dset = direction_set(scene, p) if directions is None else ArrayDirections(directions)
     ctx = _Context(scene, p, dset)
@@ -477,7 +479,7 @@ def render(scene: Scene | None = None, *, directions=None, atmosphere=None,
         alpha[s:e] = 1.0 if b["alpha"] is None else b["alpha"]
 
     bounds = dset.batches(p.batch_size)
-    nw = _default_workers() if workers is None else max(1, int(workers))
+    nw = _default_workers() if workers is None else check_count(workers, "workers")
     done = 0
     if nw == 1 or len(bounds) == 1:
         for bd in bounds:

@@ -47,6 +47,7 @@ __all__ = [
     "parse_time",
     "is_atmosphere_file",
     "auto_sampling_rule",
+    "as_scene",
 ]
 
 #: Output geometries (see :mod:`atmoscatter.directions`).
@@ -63,6 +64,9 @@ ATMOSPHERES = ("earth", "earth_no_ozone", "mars", "keller_bohn")
 #: Altitude [m] below which the observer counts as standing on the ground: the
 #: view rays below the horizon then have zero length and are not integrated.
 GROUND_OBSERVER_ALTITUDE = 1.0
+
+#: Largest number of scattering orders a scene may ask for (each order is a full pass).
+MAX_ORDERS = 1000
 
 #: Default batch size (directions per model call).  With ~40 float64
 #: temporaries per direction this keeps a batch near 20 MB per worker.
@@ -109,8 +113,8 @@ class Scene:
         Lambertian ground albedo in [0, 1]: used by multiple scattering and for
         the documented ground value below a ground observer's horizon.
     orders : int or None
-        Scattering orders of ``multiple_scattering`` (1 = single scattering;
-        ``None`` = that function's default).
+        Scattering orders of ``multiple_scattering`` in [1, 1000] (1 = single
+        scattering; ``None`` = that function's default).
     sampling : str
         ``rgb`` (the atmosphere's three sample wavelengths 680/550/440 nm),
         ``spectral`` (380–780 nm every ``wavelength_step`` nm) or ``auto``
@@ -130,6 +134,10 @@ class Scene:
         hemisphere, angular/equidistant) or ``dome`` (a sky-dome mesh).
     width, height : int
         Image size [pixels].  For ``dome``: azimuth segments and elevation rings.
+        Each is at most 65536, and the estimated output arrays (float32 layers:
+        e.g. 16 bytes per pixel for RGB) at most 4 GiB
+        (:data:`atmoscatter._validate.MAX_OUTPUT_BYTES`, environment variable
+        ``ATMOSCATTER_MAX_OUTPUT_GIB``), checked before anything is allocated.
     refinement : int
         Dome only: levels of adaptive subdivision around the sun (seed 002).
     precision : str
@@ -353,14 +361,14 @@ def _validate(s: Scene) -> None:
         _check(s.sun_elevation_deg is not None,
                "sun_azimuth_deg was given without sun_elevation_deg; give both (or neither and a time)")
     if s.time:
-        parse_time(s.time)
+        _check_time_range(parse_time(s.time))
     else:
         _check(s.sun_elevation_deg is not None,
                "the scene needs either a time (with latitude/longitude) or sun_elevation_deg")
     _check(s.altitude >= 0.0, f"altitude must be in [0, inf) m, got {s.altitude!r}")
     _check(0.0 <= s.ground_albedo <= 1.0, f"ground_albedo must be in [0, 1], got {s.ground_albedo!r}")
     if s.orders is not None:
-        _check(s.orders >= 1, f"orders must be in [1, inf), got {s.orders!r}")
+        _check(1 <= s.orders <= MAX_ORDERS, f"orders must be in [1, {MAX_ORDERS}], got {s.orders!r}")
     _check(1.0 <= s.wavelength_step <= 100.0,
            f"wavelength_step must be in [1, 100] nm, got {s.wavelength_step!r}")
     for name, options in (("projection", PROJECTIONS), ("output", OUTPUTS),
@@ -381,6 +389,7 @@ def _validate(s: Scene) -> None:
         _check(s.width >= 3 and s.height >= 1,
                f"dome needs width >= 3 azimuth segments and height >= 1 rings, got {s.width}x{s.height}")
     _check(0 <= s.refinement <= 8, f"refinement must be in [0, 8], got {s.refinement!r}")
+    _check_size(s)
     if s.exposure is not None:
         _check(s.exposure > 0, f"exposure must be in (0, inf) m^2/cd, got {s.exposure!r}")
     from .colour import _resolve_colourspace  # noqa: PLC0415  (shipped table: no colour-science)
@@ -390,6 +399,42 @@ def _validate(s: Scene) -> None:
             f"colourspace={s.colourspace!r} is not valid; choose an RGB colourspace known "
             "to colour-science, e.g. 'sRGB', 'ITU-R BT.2020', 'ACEScg'"
         )
+
+
+def _check_size(s: Scene) -> None:
+    """Refuse images whose output arrays would not fit (see :data:`MAX_OUTPUT_BYTES`)."""
+    from ._validate import check_image_size  # noqa: PLC0415
+
+    per = {"rgb": 4, "xyz": 7, "luminance": 2}.get(s.output)
+    if per is None:  # spectral: RGB + alpha + one layer per wavelength of 380-780 nm
+        per = 4 + int(400.0 / s.wavelength_step) + 1
+    check_image_size(s.projection, s.width, s.height, per)
+
+
+def _check_time_range(t: _dt.datetime) -> None:
+    from .sun import SPA_YEARS  # noqa: PLC0415
+
+    _check(SPA_YEARS[0] <= t.year <= SPA_YEARS[1],
+           f"time must be within the years {SPA_YEARS[0]}..{SPA_YEARS[1]} (validity of the "
+           f"solar position algorithm), got {t.isoformat()!r}")
+
+
+def as_scene(scene) -> Scene:
+    """A :class:`Scene` from a scene, a mapping of fields, a scene file path or None.
+
+    ``None`` is the default scene, a mapping goes through :meth:`Scene.from_dict`, a
+    ``str``/path-like through :func:`load_scene`.  Anything else raises :class:`TypeError`.
+    """
+    if scene is None:
+        return Scene()
+    if isinstance(scene, Scene):
+        return scene
+    if isinstance(scene, typing.Mapping):
+        return Scene.from_dict(scene)
+    if isinstance(scene, (str, os.PathLike)):
+        return load_scene(scene)
+    raise TypeError(f"scene must be a Scene, a dict of scene fields, a scene file path or None, "
+                    f"got {type(scene).__name__}")
 
 
 # ----------------------------------------------------------------------------
@@ -431,14 +476,18 @@ def _load_toml(path):
             return tomllib.load(fh)
         except tomllib.TOMLDecodeError as exc:
             raise ValueError(f"{path}: not valid TOML: {exc}") from None
+        except UnicodeDecodeError as exc:
+            raise ValueError(f"{path}: not UTF-8 text ({exc.reason} at byte {exc.start})") from None
 
 
 def _load_json(path):
-    with open(path, encoding="utf-8") as fh:
+    with open(path, encoding="utf-8-sig") as fh:
         try:
             return json.load(fh)
         except json.JSONDecodeError as exc:
             raise ValueError(f"{path}: not valid JSON: {exc}") from None
+        except UnicodeDecodeError as exc:
+            raise ValueError(f"{path}: not UTF-8 text ({exc.reason} at byte {exc.start})") from None
 
 
 def _parse_assignments(assignments) -> dict:
@@ -447,6 +496,9 @@ def _parse_assignments(assignments) -> dict:
         if "=" not in item:
             raise ValueError(f"--set expects key=value, got {item!r}")
         key, value = item.split("=", 1)
+        if not value.strip():
+            raise ValueError(f"--set {item!r}: the value of {key.strip()!r} is empty; give a "
+                             "value (optional fields also take 'none')")
         data[key.strip()] = value.strip()
     return data
 
@@ -742,8 +794,9 @@ def plan(scene: Scene, *, batch_size: int | None = None, atmosphere=None) -> Pla
     adapter = get_model(scene.model)
     notes = []
     if atmosphere is None and is_atmosphere_file(scene.atmosphere):
-        atmosphere = load_atmosphere(scene.atmosphere)
+        atmosphere = _load_atmosphere_file(scene.atmosphere)
     zen, azi, source = scene.sun_angles()
+    _note_undefined_sun(scene, adapter, zen, notes)
     distance = float(earth_sun_distance(parse_time(scene.time))) if scene.time else 1.0
 
     # what is asked for --------------------------------------------------------
@@ -863,6 +916,33 @@ def plan(scene: Scene, *, batch_size: int | None = None, atmosphere=None) -> Pla
         sampling=sampling if wavelengths else "",
         sampling_reason=sampling_reason if wavelengths else "",
     )
+
+
+def _load_atmosphere_file(path):
+    """:func:`load_atmosphere`, with every error naming the file."""
+    try:
+        return load_atmosphere(path)
+    except (ValueError, TypeError, KeyError, OSError) as exc:
+        msg = " ".join(str(exc).split()) or type(exc).__name__
+        if os.fspath(path) in msg:
+            raise ValueError(msg) from None
+        raise ValueError(f"atmosphere file {os.fspath(path)!r}: {msg}") from None
+
+
+#: Models whose fit is undefined with the sun below the horizon (they render black there).
+SUN_ABOVE_HORIZON_MODELS = ("preetham",)
+
+
+def _note_undefined_sun(scene, adapter, sun_zenith, notes) -> None:
+    """A note (and a warning) when a model is used outside its defined sun range."""
+    if scene.model in SUN_ABOVE_HORIZON_MODELS and sun_zenith > math.pi / 2:
+        text = (f"{scene.model} is undefined with the sun below the horizon (sun elevation "
+                f"{90.0 - math.degrees(sun_zenith):.3g} deg): the sky renders black; use "
+                "single_scattering or multiple_scattering for twilight")
+        notes.append(text)
+        import warnings  # noqa: PLC0415
+
+        warnings.warn(text, UserWarning, stacklevel=3)
 
 
 def _models():

@@ -67,6 +67,7 @@ __all__ = [
     "default_delta_t",
     "sun_direction",
     "sky_sun",
+    "SPA_YEARS",
 ]
 
 #: Standard altitude of the Sun's centre at apparent sunrise/sunset [rad]: −0.8333°
@@ -192,6 +193,28 @@ def _as_datetime64(time, name: str = "time") -> np.ndarray:
         f"{name} must be datetime64, datetime, pandas timestamps or ISO strings, "
         f"got dtype {arr.dtype}"
     )
+
+
+#: Years (inclusive, proleptic Gregorian) for which the SPA (Reda & Andreas 2004) states
+#: its accuracy; :func:`sun_position` refuses times outside them.
+SPA_YEARS = (-2000, 6000)
+_SPA_T0 = np.datetime64(f"{SPA_YEARS[0]}-01-01T00:00:00", "us")
+_SPA_T1 = np.datetime64(f"{SPA_YEARS[1] + 1}-01-01T00:00:00", "us")
+
+
+def _check_years(t_us: np.ndarray, name: str) -> None:
+    """``ValueError`` if a (non-NaT) time lies outside :data:`SPA_YEARS`."""
+    bad = ~np.isnat(t_us) & ((t_us < _SPA_T0) | (t_us >= _SPA_T1))
+    if np.any(bad):
+        raise ValueError(f"{name} must be within the years {SPA_YEARS[0]}..{SPA_YEARS[1]} "
+                         f"(validity of the SPA), got {_describe_time(t_us, bad)}")
+
+
+def _describe_time(t_us: np.ndarray, bad: np.ndarray) -> str:
+    if t_us.ndim == 0:
+        return np.datetime_as_string(t_us, unit="s")
+    idx = tuple(int(i) for i in np.argwhere(bad)[0])
+    return f"{np.datetime_as_string(t_us[idx], unit='s')} (at index {idx})"
 
 
 def _days_since_j2000(t_us: np.ndarray, name: str) -> np.ndarray:
@@ -957,6 +980,7 @@ def sun_position(
     check_option(method, "method", SUN_POSITION_METHODS)
     columns_fn, parallax, _ = SUN_POSITION_METHODS[method]
     t_us = _as_datetime64(time, "time")
+    _check_years(t_us, "time")
     d = _days_since_j2000(t_us, "time")
     lat = _checked(latitude, "latitude", -90.0, 90.0, "deg")
     lon = _checked(longitude, "longitude", -360.0, 360.0, "deg")

@@ -83,7 +83,7 @@ class TestScene:
         ("colourspace", "sRGBB", "colourspace='sRGBB' is not valid"),
         ("alpha", "maybe", "alpha must be true/false"),
         ("sun_elevation_deg", 95.0, r"sun_elevation_deg must be in \[-90, 90\]"),
-        ("orders", 0, r"orders must be in \[1, inf\)"),
+        ("orders", 0, r"orders must be in \[1, 1000\]"),
         ("longitude", 400.0, r"longitude must be in \[-360, 360\]"),
     ])
     def test_bad_values_name_field_and_range(self, field, value, match):
