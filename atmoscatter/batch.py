@@ -282,10 +282,27 @@ def load_batch(path, *, overrides: dict | None = None) -> list[tuple[str, dict]]
 FINGERPRINT_KEY = "atmoscatter:scene_hash"
 
 
+def _numerical_defaults(model: str) -> dict:
+    """The numerical defaults a physical model's values depend on (a change of the default
+    multiple-scattering grid, say, must re-render files made with the old one)."""
+    if model not in ("single_scattering", "multiple_scattering"):
+        return {}
+    from .sky import multiple, single  # noqa: PLC0415
+
+    out = {"single": [single.DEFAULT_SINGLE_SCATTERING_METHOD,
+                      single.DEFAULT_SINGLE_SCATTERING_SAMPLES, single.TABLE_THRESHOLD,
+                      single.TWILIGHT_TABLE_THRESHOLD, single.TABLE_FLOOR]}
+    if model == "multiple_scattering":
+        out["multiple"] = [repr(multiple.MULTIPLE_SCATTERING_GRID), multiple._FIELD_VERSION]
+    return out
+
+
 def scene_fingerprint(scene) -> str:
     """SHA-256 over what a rendered file depends on: every scene field, the package
-    version, the model's registration (name, description) and the measured defaults of
-    ``sampling = "auto"``; for a custom atmosphere file, its bytes.
+    version, the model's registration (name, description), the measured defaults of
+    ``sampling = "auto"`` and, for the physical models, their numerical defaults (the
+    multiple-scattering grid and field version, the single-scattering table settings);
+    for a custom atmosphere file, its bytes.
 
     Batch resume keeps an existing output only when the fingerprint stored in its header
     (:data:`FINGERPRINT_KEY`) equals that of the scene asked for now.
@@ -297,7 +314,8 @@ def scene_fingerprint(scene) -> str:
     adapter = MODELS.get(scene.model)
     payload = {"scene": scene.to_strings(), "version": __version__,
                "model": [scene.model, getattr(adapter, "description", "")],
-               "auto_sampling": auto_sampling_rule()}
+               "auto_sampling": auto_sampling_rule(),
+               "numerics": _numerical_defaults(scene.model)}
     if is_atmosphere_file(scene.atmosphere):
         try:
             with open(scene.atmosphere, "rb") as fh:

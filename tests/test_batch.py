@@ -240,6 +240,27 @@ class TestResumeFingerprint:
         monkeypatch.setattr(ac, "__version__", "99.0.0")
         assert run_batch(load_batch(p), out, progress=None).count("done") == 2
 
+    def test_changed_numerical_default_changes_the_fingerprint(self, monkeypatch):
+        """A new default multiple-scattering grid (or single-scattering table setting)
+        changes the values of physical renders: their files must not be kept."""
+        from dataclasses import replace
+
+        from atmoscatter.batch import scene_fingerprint
+        from atmoscatter.scene import Scene
+        from atmoscatter.sky import multiple, single
+
+        ms_scene = Scene(model="multiple_scattering", width=8, height=4)
+        ss_scene = Scene(model="single_scattering", width=8, height=4)
+        an_scene = Scene(model="preetham", width=8, height=4)
+        before = [scene_fingerprint(s) for s in (ms_scene, ss_scene, an_scene)]
+        monkeypatch.setattr(multiple, "MULTIPLE_SCATTERING_GRID",
+                            replace(multiple.MULTIPLE_SCATTERING_GRID, n_phi=5))
+        after = [scene_fingerprint(s) for s in (ms_scene, ss_scene, an_scene)]
+        assert after[0] != before[0] and after[1:] == before[1:]
+        monkeypatch.setattr(single, "TWILIGHT_TABLE_THRESHOLD", 7)
+        assert scene_fingerprint(ss_scene) != before[1]
+        assert scene_fingerprint(an_scene) == before[2]
+
     def test_file_without_fingerprint_is_rendered_again(self, tmp_path):
         from atmoscatter.exr import write_exr
         from atmoscatter.render import render
