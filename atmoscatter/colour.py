@@ -10,7 +10,9 @@ Public objects
 - :func:`XYZ_to_linear_rgb`, :func:`linear_rgb_to_XYZ`: linear RGB in any colour-science
   colourspace (default sRGB / Rec. 709 primaries).
 
-No colour data is hand-copied: the CMFs and RGB matrices come from colour-science.  The RGB
+No colour data is hand-copied: the CMFs and RGB matrices come from colour-science.  The CIE
+1931 2° CMFs are read from ``data/cie1931_2deg_cmf.csv`` (written by
+``scripts/make_cmf_table.py``, checked against colour-science by the tests).  The RGB
 colourspaces (names, aliases, matrices, primaries, whitepoints) are read from
 ``data/colourspaces.json``, written from ``colour.RGB_COLOURSPACES`` by
 ``scripts/make_colourspace_table.py`` and checked against colour-science by the tests, so that
@@ -47,12 +49,16 @@ K_M: float = 683.0
 _CMF_NAME = "CIE 1931 2 Degree Standard Observer"
 
 
+_CMF_TABLE = os.path.join(os.path.dirname(__file__), "data", "cie1931_2deg_cmf.csv")
+
+
 @lru_cache(maxsize=1)
 def _cmfs():
-    import colour
-
-    cmfs = colour.MSDS_CMFS[_CMF_NAME]
-    return np.asarray(cmfs.wavelengths, dtype=float), np.asarray(cmfs.values, dtype=float)
+    """(wavelengths [nm], x̄ ȳ z̄ (n, 3)) of the CIE 1931 2° observer, 360–830 nm at 1 nm:
+    ``data/cie1931_2deg_cmf.csv``, written from colour-science's ``MSDS_CMFS`` by
+    ``scripts/make_cmf_table.py`` (so that colour conversion does not import colour-science)."""
+    t = np.loadtxt(_CMF_TABLE, delimiter=",", skiprows=3)
+    return np.ascontiguousarray(t[:, 0]), np.ascontiguousarray(t[:, 1:4])
 
 
 def cmf_weights(wavelengths) -> np.ndarray:

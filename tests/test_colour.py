@@ -141,6 +141,20 @@ def test_non_numeric_is_type_error():
         ac.XYZ_to_linear_rgb("white")
 
 
+# --- the shipped CMF table (data/cie1931_2deg_cmf.csv) -------------------------------------
+def test_cmf_table_matches_colour_science():
+    """The shipped CIE 1931 2° CMFs are colour-science's (scripts/make_cmf_table.py writes
+    them with repr: an exact decimal round trip, so rtol 1e-15 only allows for parsing)."""
+    colour = pytest.importorskip("colour")
+    from atmoscatter.colour import _cmfs
+
+    wl, v = _cmfs()
+    ref = colour.MSDS_CMFS["CIE 1931 2 Degree Standard Observer"]
+    np.testing.assert_array_equal(wl, np.asarray(ref.wavelengths, dtype=float))
+    np.testing.assert_allclose(v, np.asarray(ref.values, dtype=float), rtol=1e-15, atol=0)
+    assert wl[0] == 360.0 and wl[-1] == 830.0 and np.all(np.diff(wl) == 1.0)
+
+
 # --- the shipped colourspace table (data/colourspaces.json) ------------------------------
 def test_colourspace_table_matches_colour_science():
     """The table is written from colour-science (scripts/make_colourspace_table.py); here it

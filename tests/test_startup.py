@@ -72,6 +72,15 @@ def test_scene_validation_and_plan_do_not_load_colour_science():
     assert "colour" not in loaded and "matplotlib" not in loaded and "scipy" not in loaded
 
 
+def test_spectral_colour_conversion_does_not_load_colour_science():
+    """The physical models integrate spectra with the shipped CIE 1931 CMF table."""
+    code = ("import atmoscatter as ac\n"
+            "ac.spectral_to_XYZ([[1.0, 2.0, 3.0]], [450.0, 550.0, 650.0])\n"
+            "ac.cmf_weights([400.0, 500.0, 600.0, 700.0])\n")
+    loaded = _heavy_modules_after(code)
+    assert "colour" not in loaded and "matplotlib" not in loaded and "scipy" not in loaded
+
+
 def test_all_lists_exactly_the_public_names():
     public = {n for n in dir(ac)
               if not n.startswith("_") and not isinstance(getattr(ac, n), types.ModuleType)}

@@ -1,0 +1,47 @@
+"""Regenerate ``atmoscatter/data/cie1931_2deg_cmf.csv`` from colour-science.
+
+The CIE 1931 2° standard observer's colour-matching functions, 360–830 nm at 1 nm, as
+colour-science distributes them (``colour.MSDS_CMFS["CIE 1931 2 Degree Standard
+Observer"]``, from the CIE's own data tables: CIE 018:2019 / CIE 15:2018; colour-science
+is BSD-3-Clause).  Shipping them lets the physical models' colour conversion run without
+importing colour-science (about a second: SciPy and Matplotlib come with it).  No value
+is hand-copied: the file is written by this script, and ``tests/test_colour.py`` checks
+it against the installed colour-science.
+
+Run:  PYTHONPATH=. python scripts/make_cmf_table.py
+"""
+
+import os
+import tempfile
+
+import colour
+import numpy as np
+
+NAME = "CIE 1931 2 Degree Standard Observer"
+OUT = os.path.join(os.path.dirname(__file__), "..", "atmoscatter", "data", "cie1931_2deg_cmf.csv")
+
+
+def main() -> None:
+    cmfs = colour.MSDS_CMFS[NAME]
+    wl = np.asarray(cmfs.wavelengths, dtype=float)
+    v = np.asarray(cmfs.values, dtype=float)
+    out = os.path.abspath(OUT)
+    fd, tmp = tempfile.mkstemp(dir=os.path.dirname(out), suffix=".tmp")
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as f:
+            f.write(f"# {NAME}: colour-matching functions x_bar, y_bar, z_bar [-]\n")
+            f.write(f"# source: colour-science {colour.__version__}, colour.MSDS_CMFS (CIE data; "
+                    "colour-science BSD-3-Clause); written by scripts/make_cmf_table.py\n")
+            f.write("wavelength_nm,x_bar,y_bar,z_bar\n")
+            for w, (x, y, z) in zip(wl, v, strict=True):
+                f.write(f"{w!r},{x!r},{y!r},{z!r}\n")
+        os.chmod(tmp, 0o644)
+        os.replace(tmp, out)
+    except BaseException:
+        os.remove(tmp)
+        raise
+    print(f"wrote {out}: {wl.size} wavelengths {wl[0]:g}-{wl[-1]:g} nm")
+
+
+if __name__ == "__main__":
+    main()
