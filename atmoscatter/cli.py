@@ -25,6 +25,7 @@ import argparse
 import contextlib
 import json
 import sys
+import threading
 import time
 import warnings
 
@@ -141,7 +142,7 @@ def _cmd_render(args, out) -> int:
         raise ValueError("render needs an output file: -o sky.exr (or --explain to only plan)")
     _check_render_outputs(args)
     t0 = time.perf_counter()
-    with _render_progress(quiet=args.quiet) as progress:
+    with _render_progress(quiet=args.quiet) as progress, _precompute_progress(quiet=args.quiet):
         img = render(scene, workers=args.workers, batch_size=args.batch_size, progress=progress)
     write_exr(args.output, img)
     size = "x".join(map(str, img.shape[::-1]))
@@ -186,6 +187,44 @@ def _render_progress(*, quiet: bool, stream=None):
         yield progress
     finally:
         if bar is not None:
+            bar.close()
+
+
+@contextlib.contextmanager
+def _precompute_progress(*, quiet: bool, stream=None):
+    """A tqdm bar per stage of long precomputations (the multiple-scattering field, one
+    stage per scattering order; :mod:`atmoscatter._progress`) on ``stream`` (stderr), under
+    the same rules as :func:`_render_progress`."""
+    from . import _progress  # noqa: PLC0415
+
+    stream = sys.stderr if stream is None else stream
+    isatty = getattr(stream, "isatty", None)
+    if quiet or isatty is None or not isatty():
+        yield
+        return
+    from tqdm import tqdm  # noqa: PLC0415
+
+    lock = threading.Lock()
+    bars: dict = {}
+    t0 = time.monotonic()
+
+    def reporter(stage, done, total):
+        with lock:
+            bar = bars.get(stage)
+            if bar is None:
+                for old in bars.values():
+                    old.close()
+                bars.clear()
+                wait = max(0.0, PROGRESS_DELAY - (time.monotonic() - t0))
+                bar = bars[stage] = tqdm(total=total, unit="cell", desc=stage, file=stream,
+                                         delay=wait, leave=False, dynamic_ncols=True)
+            bar.update(done - bar.n)
+
+    try:
+        with _progress.reporting(reporter):
+            yield
+    finally:
+        for bar in bars.values():
             bar.close()
 
 

@@ -605,6 +605,13 @@ class Plan:
     sampling_reason : str
         Why (for ``sampling="auto"``: the measured colour error of three
         wavelengths at this sun elevation and where it was measured).
+    numerics : str
+        The numerical method of the physical models and its settings (for
+        ``multiple_scattering``: how many scattering orders and the field grid); ``""``
+        for the analytic models.
+    accuracy : str
+        The model's stated error for this scene (the EXR header's ``error_estimate``;
+        for ``multiple_scattering`` the measured figure of the scene's regime).
     """
 
     model: str
@@ -629,6 +636,8 @@ class Plan:
     atmosphere: object = field(default=None, compare=False)
     sampling: str = ""
     sampling_reason: str = ""
+    numerics: str = ""
+    accuracy: str = ""
 
     @property
     def sun_direction(self) -> np.ndarray:
@@ -667,6 +676,10 @@ class Plan:
         if self.sampling:
             lines.append(f"sampling         : {self.sampling} ({len(self.wavelengths)} wavelengths)"
                          + (f" — {self.sampling_reason}" if self.sampling_reason else ""))
+        if self.numerics:
+            lines.append(f"numerics         : {self.numerics}")
+        if self.accuracy:
+            lines.append(f"accuracy         : {self.accuracy}")
         lines += [
             "below horizon    : "
             + (f"not evaluated (z < {self.horizon_z:g}), filled with {self.ground_value}"
@@ -915,7 +928,51 @@ def plan(scene: Scene, *, batch_size: int | None = None, atmosphere=None) -> Pla
         atmosphere=atmosphere,
         sampling=sampling if wavelengths else "",
         sampling_reason=sampling_reason if wavelengths else "",
+        numerics=_numerics_text(scene),
+        accuracy=_accuracy_text(scene, adapter),
     )
+
+
+def _numerics_text(scene: Scene) -> str:
+    """What :attr:`Plan.numerics` says for ``scene`` (physical models only)."""
+    if scene.model == "multiple_scattering":
+        import dataclasses  # noqa: PLC0415
+        import inspect  # noqa: PLC0415
+
+        from .sky import multiple  # noqa: PLC0415 - light: kernels load on first use
+
+        sig = inspect.signature(multiple.multiple_scattering).parameters
+        tol = sig["order_tolerance"].default
+        if scene.orders is None:
+            orders = (f"all scattering orders (summed until the estimated remaining orders are "
+                      f"below {multiple._ACCELERATION * tol:g} of the multiple-scattering "
+                      f"source, then added as a geometric tail of error < {tol:g}; at most "
+                      f"{multiple._MAX_AUTO_ORDERS})")
+        else:
+            orders = f"{scene.orders} scattering order{'s' if scene.orders != 1 else ''} (fixed)"
+        g = dataclasses.asdict(multiple.MULTIPLE_SCATTERING_GRID)
+        grid = ", ".join(f"{k} {v:g}" for k, v in g.items())
+        return (f"{orders}; order 1 by single_scattering, higher orders from a precomputed "
+                f"field on the grid {grid} (kept in the on-disk cache)")
+    if scene.model == "single_scattering":
+        from .sky import single  # noqa: PLC0415
+
+        method = scene.method or single.DEFAULT_SINGLE_SCATTERING_METHOD
+        text = f"single scattering by '{method}'"
+        if scene.method is None:
+            text += (f"; batches of >= {single.TABLE_THRESHOLD} directions (>= "
+                     f"{single.TWILIGHT_TABLE_THRESHOLD} with the sun below the horizon) use "
+                     "the self-checked table")
+        return text
+    return ""
+
+
+def _accuracy_text(scene: Scene, adapter) -> str:
+    est = getattr(adapter, "error_estimate", "")
+    try:
+        return str(est(scene) if callable(est) else est)
+    except Exception as exc:  # noqa: BLE001 - a statement must never break planning
+        return f"not available ({type(exc).__name__})"
 
 
 def _load_atmosphere_file(path):

@@ -184,6 +184,51 @@ def test_render_progress_bar_waits_for_long_renders():
     assert "render" not in "".join(err.parts)  # a short render draws no bar
 
 
+def test_precompute_progress_shows_each_multiple_scattering_order(monkeypatch):
+    """The multiple-scattering field build reports one stage per order; on a terminal
+    each becomes a bar; quiet or off a terminal, no reporter is installed at all."""
+    pytest.importorskip("tqdm")
+    import atmoscatter.cli as cli
+    from atmoscatter import _progress
+    from atmoscatter.sky import multiple
+
+    for quiet, tty in ((True, True), (False, False)):
+        with cli._precompute_progress(quiet=quiet, stream=_Tty(tty)):
+            assert not _progress.active()
+    monkeypatch.setattr(cli, "PROGRESS_DELAY", 0.0)
+    monkeypatch.setattr(multiple, "_RESULTS", {})
+    monkeypatch.setattr(multiple, "_CACHE", type(multiple._CACHE)())
+    monkeypatch.setenv("ATMOSCATTER_CACHE_DIR", "off")
+    err = _Tty()
+    grid = ac.MultipleScatteringGrid(n_altitude=4, n_sun=6, n_mu=4, n_phi=3, order=2)
+    seen = []
+    with cli._precompute_progress(quiet=False, stream=err):
+        assert _progress.active()
+        bar = _progress._REPORTER
+        with _progress.reporting(lambda *a: (seen.append(a), bar(*a))):
+            ac.multiple_scattering(ac.earth_atmosphere(), [[0.0, 0.0, 1.0]], [0.0, 0.6, 0.8],
+                                   orders=4, grid=grid)
+    assert not _progress.active()
+    # orders=4: the fields of orders 1-3 are built (the gather adds the last order);
+    # 4 altitudes × 6 suns = 24 cells each, every cell reported once
+    stages = [f"multiple scattering: order {k}" for k in (1, 2, 3)]
+    assert list(dict.fromkeys(a[0] for a in seen)) == stages
+    for st in stages:
+        assert sorted(d for s_, d, t in seen if s_ == st) == list(range(1, 25))
+        assert st in "".join(err.parts)
+
+
+def test_progress_reporter_errors_are_ignored():
+    from atmoscatter import _progress
+
+    def broken(stage, done, total):
+        raise RuntimeError("display broke")
+
+    with _progress.reporting(broken):
+        _progress.report("x", 1, 2)  # no exception
+    assert not _progress.active()
+
+
 def test_render_quiet_flag(tmp_path, capsys):
     out = tmp_path / "sky.exr"
     assert main(["render", "-o", str(out), *TOY, "--quiet"]) == 0

@@ -218,6 +218,25 @@ class TestPlan:
         d = json.loads(p.to_json())
         assert d["haze"] is False and d["quantity"] == "Y" and d["model"] == "toy_haze"
 
+    def test_explain_states_the_numerics_of_the_physical_models(self):
+        """--explain says how many scattering orders multiple scattering sums (automatic
+        or fixed) and on which grid, and the model's accuracy statement for the scene."""
+        from atmoscatter.models import get_model
+        from atmoscatter.sky.multiple import MULTIPLE_SCATTERING_GRID
+
+        sc = Scene(model="multiple_scattering", sun_elevation_deg=5.0, width=8, height=4)
+        text = plan(sc).explain()
+        assert "numerics         : all scattering orders" in text
+        assert f"n_phi {MULTIPLE_SCATTERING_GRID.n_phi}" in text
+        assert "accuracy         : " + get_model("multiple_scattering").error_estimate(sc) in text
+        assert "sun 0–10° above the horizon" in text  # the regime of a 5° sun
+        fixed = plan(Scene(model="multiple_scattering", orders=3, width=8, height=4)).explain()
+        assert "3 scattering orders (fixed)" in fixed
+        ss = plan(Scene(model="single_scattering", width=8, height=4))
+        assert "'graded'" in ss.numerics and "table" in ss.numerics
+        assert plan(Scene(width=8, height=4)).numerics == ""  # analytic: nothing to state
+        assert json.loads(plan(sc).to_json())["numerics"] == plan(sc).numerics
+
     def test_bad_batch_size(self):
         with pytest.raises(ValueError, match="batch_size"):
             plan(scene(), batch_size=0)
