@@ -78,6 +78,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .. import _progress
 from .._validate import check_range
 from . import _quadrature as qd
 from ._ms_gather import Located as _Located
@@ -569,7 +570,7 @@ class _FieldState:
             if self.keep:
                 self.marches[i, j] = _compact(field, mc)
 
-        _run_cells(first, cells)
+        _run_cells(first, cells, "multiple scattering: order 1")
         self.W = field.phase_matrices()  # (n_alt, nsc, n_out, ndir)
         self.L = L  # field of the highest order computed so far
         self.S: list[np.ndarray] = []  # S^1, S^2, ...
@@ -611,7 +612,8 @@ class _FieldState:
                 path += np.where(mc.ground[:, None], mc.t_end * self.albedo / np.pi * e, 0.0)
             Lnew[i, j] = path.reshape(n_mu, n_phi, -1)
 
-        _run_cells(cell, [(i, j) for i in range(f.shape[0]) for j in range(f.shape[1])])
+        _run_cells(cell, [(i, j) for i in range(f.shape[0]) for j in range(f.shape[1])],
+                   f"multiple scattering: order {len(self.S) + 1}")
         return Lnew
 
     def source_sum(self, orders: int) -> np.ndarray:
@@ -701,18 +703,21 @@ def _compact(field: _Field, mc: _March):
     return _Compact(loc, wt, mc.ground, mc.t_end, mc.mus_end)
 
 
-def _run_cells(fn, cells):
+def _run_cells(fn, cells, stage: str = ""):
     """Apply ``fn`` to every grid cell, over a small thread pool (the kernels and most
-    NumPy operations release the GIL)."""
-    if _THREADS <= 1 or len(cells) < 2:
-        for c in cells:
+    NumPy operations release the GIL); progress is reported as ``stage``
+    (:mod:`atmoscatter._progress`)."""
+    total = len(cells)
+    if _THREADS <= 1 or total < 2:
+        for k, c in enumerate(cells):
             fn(c)
+            _progress.report(stage, k + 1, total)
         return
     from concurrent.futures import ThreadPoolExecutor
 
     with ThreadPoolExecutor(max_workers=_THREADS) as pool:
-        for _ in pool.map(fn, cells):
-            pass
+        for k, _ in enumerate(pool.map(fn, cells)):
+            _progress.report(stage, k + 1, total)
 
 
 _MAX_AUTO_ORDERS = 200
