@@ -12,7 +12,9 @@ mkdocstrings loads the package:
 * ``.. math::`` becomes a ``$$ … $$`` block and ``:math:`x``` becomes ``$x$``, which
   ``pymdownx.arithmatex`` marks up and ``scripts/docs_hooks.py`` turns into MathML at build time
   (no JavaScript, no network);
-* a paragraph ending in ``::`` (reST "literal block follows") ends in ``:``.
+* a paragraph ending in ``::`` (reST "literal block follows") ends in ``:``;
+* the name/description pairs of the modules' "Public objects" sections become bullet lists
+  whose names link to the objects.
 
 Loaded from ``mkdocs.yml`` (``plugins: mkdocstrings: handlers: python: options: extensions``).
 
@@ -72,6 +74,33 @@ def _convert_math_blocks(text: str) -> str:
             out.append("")
         out.extend([f"{indent}$$", *[f"{indent}{b}" for b in body], f"{indent}$$", ""])
     return "\n".join(out)
+
+
+_LIST_SECTIONS = ("Public objects", "Modules")
+_DASHES = re.compile(r"\s*-{3,}\s*")
+
+
+def _definition_lists(text: str) -> str:
+    """Term/description pairs of the "Public objects" / "Modules" sections → a bullet list.
+
+    numpy style writes them like ``Parameters`` entries without types (a name at the margin,
+    the description indented below), which Markdown would run together into one paragraph.
+    Names become ``:obj:`` roles, so they link to the objects.
+    """
+    lines = text.split("\n")
+    in_list = False
+    for i, line in enumerate(lines):
+        nxt = lines[i + 1] if i + 1 < len(lines) else ""
+        if line.strip() and _DASHES.fullmatch(nxt):
+            in_list = line.strip() in _LIST_SECTIONS
+            continue
+        if (in_list and line.strip() and not line[0].isspace() and not _DASHES.fullmatch(line)
+                and nxt[:1].isspace() and nxt.strip()):
+            terms = [t.strip() for t in line.split(",")]
+            if all(re.fullmatch(r"[A-Za-z_][\w.]*", t) for t in terms):
+                line = ", ".join(f":obj:`{t}`" for t in terms)
+            lines[i] = f"- {line} —"
+    return "\n".join(lines)
 
 
 def _deeper(line: str, indent: str) -> bool:
@@ -155,7 +184,7 @@ class _Resolver:
 
 def convert(text: str, scope=None, resolver: _Resolver | None = None) -> str:
     """Translate the reST markup of one docstring to Markdown (see the module docstring)."""
-    text = _convert_math_blocks(text)
+    text = _definition_lists(_convert_math_blocks(text))
 
     def role(m: re.Match) -> str:
         kind, content = m.group(1), m.group(2)

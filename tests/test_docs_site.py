@@ -108,3 +108,10 @@ def test_source_links():
     out = docs_hooks._link_sources("seeds 002 and 004, errata 003.3; Seed 000", "b/")
     assert out == ('seeds <a href="b/#seed-002">002</a> and <a href="b/#seed-004">004</a>, '
                    'errata <a href="b/#errata-003-3">003.3</a>; Seed <a href="b/#seed-000">000</a>')
+
+
+def test_public_objects_section_becomes_a_list():
+    text = "Summary.\n\nPublic objects\n--------------\nfoo, BAR\n    What they are.\n\nNotes\n-----\nx\n    y"
+    out = docs_sphinx_roles.convert(text)
+    assert "- `foo`, `BAR` —\n    What they are." in out
+    assert out.endswith("Notes\n-----\nx\n    y")  # other sections are left alone
