@@ -75,7 +75,7 @@ def tone_map(values, exposure: float, tone: str = "exponential"):
     Returns
     -------
     ndarray
-        Display values in [0, 1] [-], same shape as ``values`` (each channel mapped on its own).
+        Display values [-] in [0, 1], same shape as ``values`` (each channel mapped on its own).
     """
     if tone not in TONES:
         raise ValueError(f"tone={tone!r} is not valid; choose one of {sorted(TONES)}")
@@ -96,12 +96,12 @@ def srgb_encode(v):
     Parameters
     ----------
     v : array_like
-        Linear values in [0, 1] [-].
+        Linear values [-] in [0, 1].
 
     Returns
     -------
     ndarray
-        Encoded values in [0, 1] [-].
+        Encoded values [-] in [0, 1].
     """
     v = np.clip(v, 0.0, 1.0)
     return np.where(v <= 0.0031308, 12.92 * v, 1.055 * np.power(v, 1.0 / 2.4) - 0.055)
