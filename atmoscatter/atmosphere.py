@@ -445,6 +445,17 @@ def atmosphere_to_dict(atmosphere: Atmosphere) -> dict:
     """Plain-data form of an :class:`Atmosphere` (numbers, strings, lists; TOML/JSON ready).
 
     The inverse of :func:`atmosphere_from_dict`; every field round-trips exactly.
+
+    Parameters
+    ----------
+    atmosphere : Atmosphere
+        The atmosphere to convert.
+
+    Returns
+    -------
+    dict
+        Keys as in :func:`atmosphere_from_dict` (lengths [m], wavelengths [nm], coefficients
+        [m⁻¹]).
     """
     def profile(p):
         kind = {v[0]: k for k, v in _PROFILE_KINDS.items()}[type(p)]
@@ -478,6 +489,16 @@ def atmosphere_from_dict(data: dict) -> Atmosphere:
     ``half_width``, or ``"tabulated"`` with ``altitudes`` and ``densities``) and ``phase``
     (``"rayleigh"``, ``"isotropic"``, or ``{type = "henyey_greenstein", g = 0.8}`` /
     ``"cornette_shanks"``).  Unknown keys and bad values raise ``ValueError`` naming them.
+
+    Parameters
+    ----------
+    data : mapping
+        The plain-data form (keys above; lengths [m], wavelengths [nm], coefficients [m⁻¹]).
+
+    Returns
+    -------
+    Atmosphere
+        The validated atmosphere.
 
     Examples
     --------
@@ -518,7 +539,18 @@ def atmosphere_from_dict(data: dict) -> Atmosphere:
 
 
 def load_atmosphere(path) -> Atmosphere:
-    """Read an atmosphere from a TOML or JSON file (format: :func:`atmosphere_from_dict`)."""
+    """Read an atmosphere from a TOML or JSON file (format: :func:`atmosphere_from_dict`).
+
+    Parameters
+    ----------
+    path : str or path-like
+        A ``.toml`` or ``.json`` file.
+
+    Returns
+    -------
+    Atmosphere
+        The atmosphere the file describes.
+    """
     import json
     import os
 

@@ -47,7 +47,21 @@ _NAME_RE = re.compile(r"^[A-Za-z0-9._+-]+$")
 @dataclass
 class BatchResult:
     """Outcome of one scene: ``status`` is ``done``, ``skipped`` (already complete and up to
-    date), ``failed`` or ``unfinished`` (the batch was interrupted before it finished)."""
+    date), ``failed`` or ``unfinished`` (the batch was interrupted before it finished).
+
+    Parameters
+    ----------
+    name : str
+        Scene name (the output's file stem).
+    path : str
+        Output EXR path.
+    status : {"done", "skipped", "failed", "unfinished"}
+        Outcome.
+    seconds : float
+        Wall time spent on the scene [s].
+    error : str
+        One-line error message of a failed scene (empty otherwise).
+    """
 
     name: str
     path: str
@@ -58,7 +72,17 @@ class BatchResult:
 
 @dataclass
 class BatchSummary:
-    """All results of a batch, with counts and a readable report."""
+    """All results of a batch, with counts and a readable report.
+
+    Parameters
+    ----------
+    results : list of BatchResult
+        One entry per scene, in batch order.
+    seconds : float
+        Wall time of the whole batch [s].
+    interrupted : str
+        ``""``, or the signal that stopped the batch (``"SIGINT"``, ``"SIGTERM"``).
+    """
 
     results: list = field(default_factory=list)
     seconds: float = 0.0
@@ -150,6 +174,17 @@ def expand_sweep(sweep: dict) -> list[dict]:
     ``"1h"``; ``stop`` included).  The optional key ``name`` is a
     :meth:`str.format` template over the fields and ``index`` (default
     ``"sky_{index:05d}"``).
+
+    Parameters
+    ----------
+    sweep : dict
+        The ``[sweep]`` table: scene fields mapped to lists or ``{start, stop, step}`` ranges,
+        plus the optional ``name`` template.
+
+    Returns
+    -------
+    list of dict
+        One mapping of scene fields per combination, each with its ``name``.
     """
     sweep = dict(sweep)
     template = sweep.pop("name", "sky_{index:05d}")
@@ -226,6 +261,19 @@ def load_batch(path, *, overrides: dict | None = None) -> list[tuple[str, dict]]
     Unknown or duplicate columns, rows with more or fewer cells than the header,
     non-UTF-8 text and duplicate names raise :class:`ValueError` naming the file
     (and the line); bad *values* are reported per scene when the batch runs.
+
+    Parameters
+    ----------
+    path : str or path-like
+        A ``.csv`` or ``.toml`` batch file.
+    overrides : dict, optional
+        Scene fields set in every scene (after the file's values).
+
+    Returns
+    -------
+    list of (str, dict)
+        ``(name, fields)`` per scene, in file order; ``fields`` are raw scene-field values
+        (validated by :class:`Scene` when the scene is rendered).
     """
     from .scene import Scene  # noqa: PLC0415
 
@@ -306,6 +354,16 @@ def scene_fingerprint(scene) -> str:
 
     Batch resume keeps an existing output only when the fingerprint stored in its header
     (:data:`FINGERPRINT_KEY`) equals that of the scene asked for now.
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene of one output.
+
+    Returns
+    -------
+    str
+        Hexadecimal SHA-256 digest.
     """
     from . import __version__  # noqa: PLC0415
     from .models import MODELS  # noqa: PLC0415

@@ -117,6 +117,11 @@ def weighted_quantile(values, q, weights=None) -> float:
     weights : array_like, optional
         Non-negative weights (e.g. pixel solid angles [sr]); default equal weights, in which
         case the result equals ``numpy.quantile(values, q, method="inverted_cdf")``.
+
+    Returns
+    -------
+    float
+        The quantile, in the units of ``values``.
     """
     v = np.asarray(values, dtype=float).ravel()
     q = float(q)
@@ -843,6 +848,16 @@ def add_compare_parser(subparsers):
     """Register ``atmoscatter compare OTHER.exr --scene SCENE [-o DIR]`` on ``subparsers``.
 
     The handler is :func:`run_compare` (also set as the parser's ``func`` default).
+
+    Parameters
+    ----------
+    subparsers : argparse._SubParsersAction
+        The ``atmoscatter`` command's sub-command registry (``parser.add_subparsers()``).
+
+    Returns
+    -------
+    argparse.ArgumentParser
+        The ``compare`` parser.
     """
     import argparse
 
@@ -905,7 +920,20 @@ def _scene_for_cli(args):
 
 def run_compare(args, out=None) -> int:
     """Handler of the ``compare`` subcommand: prints the summary (to ``out``, default
-    stdout), writes the report if ``-o`` was given and returns the exit status (0)."""
+    stdout), writes the report if ``-o`` was given and returns the exit status (0).
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        Parsed arguments of the ``compare`` parser (:func:`add_compare_parser`).
+    out : file-like, optional
+        Where the summary is printed (default ``sys.stdout``).
+
+    Returns
+    -------
+    int
+        Exit status: 0.
+    """
     import sys
 
     out = sys.stdout if out is None else out

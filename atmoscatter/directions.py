@@ -56,13 +56,35 @@ AIR_OPTICAL_LENGTH_ZENITH = 8400.0
 
 
 def local_to_exr(d):
-    """Local (east, north, up) → OpenEXR environment frame (x = west, y = up, z = north)."""
+    """Local (east, north, up) → OpenEXR environment frame (x = west, y = up, z = north).
+
+    Parameters
+    ----------
+    d : array_like, shape (..., 3)
+        Directions in the local frame [-].
+
+    Returns
+    -------
+    ndarray, shape (..., 3)
+        The same directions in the OpenEXR environment frame [-].
+    """
     d = np.asarray(d)
     return np.stack([-d[..., 0], d[..., 2], d[..., 1]], axis=-1)
 
 
 def exr_to_local(d):
-    """OpenEXR environment frame (x = west, y = up, z = north) → local (east, north, up)."""
+    """OpenEXR environment frame (x = west, y = up, z = north) → local (east, north, up).
+
+    Parameters
+    ----------
+    d : array_like, shape (..., 3)
+        Directions in the OpenEXR environment frame [-].
+
+    Returns
+    -------
+    ndarray, shape (..., 3)
+        The same directions in the local frame [-].
+    """
     d = np.asarray(d)
     return np.stack([-d[..., 0], d[..., 2], d[..., 1]], axis=-1)
 
@@ -126,6 +148,11 @@ class LatLongDirections(DirectionSet):
     edges, north in the centre, east at three quarters of the width.  This is
     the orientation of OpenEXR's ``envmap = latlong`` (``LatLongMap`` in
     ImfEnvmap) with the environment frame's +z = north, +y = up.
+
+    Parameters
+    ----------
+    width, height : int
+        Map size [pixels], ≥ 1.
     """
 
     kind = "latlong"
@@ -228,6 +255,11 @@ class CubeMapDirections(DirectionSet):
     ``CubeMap``): +X, −X, +Y, −Y, +Z, −Z of the environment frame
     (x = west, y = up, z = north), so +Y is the zenith face.  Directions are at
     pixel centres (OpenEXR's own helper puts samples on the face edges).
+
+    Parameters
+    ----------
+    face : int
+        Edge length of one face [pixels], ≥ 1.
     """
 
     kind = "cubemap"
@@ -287,6 +319,11 @@ class FisheyeDirections(DirectionSet):
     the centre, north is up and east is to the *left* (looking up at the sky).
     Pixels outside the circle are invalid: they are not evaluated and get
     alpha 0.
+
+    Parameters
+    ----------
+    width, height : int
+        Image size [pixels], ≥ 1.
     """
 
     kind = "fisheye"
@@ -492,7 +529,13 @@ def _first_non_unit(d, tol):
 
 
 class ArrayDirections(DirectionSet):
-    """Arbitrary unit directions (..., 3) given by the caller (e.g. a mesh's vertices)."""
+    """Arbitrary unit directions (..., 3) given by the caller (e.g. a mesh's vertices).
+
+    Parameters
+    ----------
+    directions : array_like, shape (..., 3)
+        Unit vectors in the local frame (x = east, y = north, z = up) [-].
+    """
 
     kind = "directions"
 
@@ -526,7 +569,22 @@ def _dedupe_points(p, tol=1e-9):
 
 
 def direction_set(scene, plan=None) -> DirectionSet:
-    """The direction set of ``scene`` (uses ``plan`` for the sun and the hemisphere)."""
+    """The direction set of ``scene`` (uses ``plan`` for the sun and the hemisphere).
+
+    Parameters
+    ----------
+    scene : Scene
+        Its ``projection``, ``width``, ``height`` (and, for the dome, ``refinement``) are used.
+    plan : Plan, optional
+        The scene's plan; for the dome mesh it gives the sun direction and whether the lower
+        hemisphere is needed (default: from the scene, upper hemisphere only).
+
+    Returns
+    -------
+    DirectionSet
+        ``LatLongDirections``, ``CubeMapDirections``, ``FisheyeDirections`` or
+        ``DomeDirections``.
+    """
     if scene.projection == "latlong":
         return LatLongDirections(scene.width, scene.height)
     if scene.projection == "cubemap":
@@ -548,6 +606,15 @@ def mirror_pairs(directions, sun_direction, *, decimals=11):
     representative on the side ``d · p ≥ 0`` (``p`` the horizontal normal of
     the solar vertical), rounded to ``decimals`` decimals; identical
     representatives are evaluated once.
+
+    Parameters
+    ----------
+    directions : array_like, shape (n, 3)
+        Unit view directions in the local frame [-].
+    sun_direction : array_like, shape (3,)
+        Unit vector toward the sun [-].
+    decimals : int
+        Rounding of the folded directions used to find duplicates.
 
     Returns
     -------

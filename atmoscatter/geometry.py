@@ -56,6 +56,18 @@ def impact_parameter(r, mu):
 
     ``p = r·sqrt(1 − μ²)``.  Computed as ``r·sqrt((1 − μ)(1 + μ))`` to keep accuracy for
     near-vertical rays.
+
+    Parameters
+    ----------
+    r : array_like
+        Distance of the ray origin from the planet centre [m].
+    mu : array_like
+        Cosine of the ray's zenith angle at the origin [-].
+
+    Returns
+    -------
+    ndarray
+        Impact parameter ``p`` [m].
     """
     r = as_float_array(r, "r")
     mu = clamp_cosine(as_float_array(mu, "mu"))
@@ -110,13 +122,42 @@ def distance_to_top(r, mu, top_radius):
     For an origin inside (or on) the sphere this is the positive root.  For an origin
     outside, it is the far intersection if the ray enters the atmosphere ahead, and 0 if it
     misses or points away (nothing to integrate).  Never NaN for finite input.
+
+    Parameters
+    ----------
+    r : array_like
+        Distance of the ray origin from the planet centre [m].
+    mu : array_like
+        Cosine of the ray's zenith angle at the origin [-].
+    top_radius : float or array_like
+        Radius of the top of the atmosphere [m].
+
+    Returns
+    -------
+    ndarray
+        Distance to the exit point [m] (0 when there is nothing to integrate).
     """
     t_near, t_far = ray_sphere_intersections(r, mu, top_radius)
     return np.where(np.isfinite(t_far) & (t_far > 0), t_far, 0.0).astype(t_far.dtype, copy=False)
 
 
 def distance_to_entry(r, mu, top_radius):
-    """Distance [m] to where the ray enters the top-of-atmosphere sphere (0 if inside)."""
+    """Distance [m] to where the ray enters the top-of-atmosphere sphere (0 if inside).
+
+    Parameters
+    ----------
+    r : array_like
+        Distance of the ray origin from the planet centre [m].
+    mu : array_like
+        Cosine of the ray's zenith angle at the origin [-].
+    top_radius : float or array_like
+        Radius of the top of the atmosphere [m].
+
+    Returns
+    -------
+    ndarray
+        Distance to the entry point [m]; 0 for an origin inside the atmosphere.
+    """
     t_near, t_far = ray_sphere_intersections(r, mu, top_radius)
     return np.where(np.isfinite(t_near) & (t_near > 0), t_near, 0.0).astype(t_near.dtype, copy=False)
 
@@ -130,6 +171,20 @@ def ray_hits_ground(r, mu, planet_radius):
     itself (``r = R``) the horizontal ray (``μ = 0``) does not — it is the horizon ray,
     which travels through the atmosphere.  Origins below the surface are invalid input;
     they are reported as hitting.
+
+    Parameters
+    ----------
+    r : array_like
+        Distance of the ray origin from the planet centre [m].
+    mu : array_like
+        Cosine of the ray's zenith angle at the origin [-].
+    planet_radius : float or array_like
+        Planet radius [m].
+
+    Returns
+    -------
+    ndarray of bool
+        True where the ray hits the ground.
     """
     r, mu, radius = _prep(r, mu, planet_radius)
     disc = _discriminant(r, mu, radius)
@@ -142,6 +197,20 @@ def distance_to_ground(r, mu, planet_radius):
     The near (first) intersection is returned: for ``r ≥ R`` and ``μ < 0`` that is
     ``c/q`` with ``q = −(rμ − √D)`` (no cancellation), 0 for an observer exactly on the
     surface looking down.
+
+    Parameters
+    ----------
+    r : array_like
+        Distance of the ray origin from the planet centre [m].
+    mu : array_like
+        Cosine of the ray's zenith angle at the origin [-].
+    planet_radius : float or array_like
+        Planet radius [m].
+
+    Returns
+    -------
+    ndarray
+        Distance to the ground [m]; ``inf`` for rays that miss it.
     """
     r, mu, radius = _prep(r, mu, planet_radius)
     t_near, _ = ray_sphere_intersections(r, mu, radius)
@@ -155,6 +224,24 @@ def altitude_along_ray(r, mu, t, planet_radius):
     Returns ``(h, mu_t)`` with ``r_t = sqrt(r² + 2rμt + t²)`` evaluated as
     ``sqrt((r + μt)² + (1 − μ²)t²)`` (sum of squares: no cancellation), and
     ``mu_t = (rμ + t)/r_t``.
+
+    Parameters
+    ----------
+    r : array_like
+        Distance of the ray origin from the planet centre [m].
+    mu : array_like
+        Cosine of the ray's zenith angle at the origin [-].
+    t : array_like
+        Distance along the ray [m].
+    planet_radius : float or array_like
+        Planet radius [m].
+
+    Returns
+    -------
+    h : ndarray
+        Altitude above the surface at ``t`` [m].
+    mu_t : ndarray
+        Cosine of the ray's zenith angle at ``t`` [-].
     """
     r, mu, radius = _prep(r, mu, planet_radius)
     t = as_float_array(t, "t")

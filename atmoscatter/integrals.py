@@ -482,13 +482,37 @@ def direct_normal_irradiance(atmosphere, sun_direction, *, altitude: float = 0.0
 # spherical harmonics
 # --------------------------------------------------------------------------------------
 def sh_count(order: int) -> int:
-    """Number of real SH coefficients up to and including ``order``: ``(order + 1)²``."""
+    """Number of real SH coefficients up to and including ``order``: ``(order + 1)²``.
+
+    Parameters
+    ----------
+    order : int
+        Highest degree l, ≥ 0.
+
+    Returns
+    -------
+    int
+        ``(order + 1)²``.
+    """
     order = _check_count(order, "order", 0)
     return (order + 1) ** 2
 
 
 def sh_index(l, m):  # noqa: E741 - l is the conventional degree symbol
-    """Flat coefficient index ``l(l + 1) + m`` of degree ``l`` ≥ 0 and order ``|m| ≤ l``."""
+    """Flat coefficient index ``l(l + 1) + m`` of degree ``l`` ≥ 0 and order ``|m| ≤ l``.
+
+    Parameters
+    ----------
+    l : int or array_like of int
+        Degree, ≥ 0.
+    m : int or array_like of int
+        Order, ``|m| ≤ l``.
+
+    Returns
+    -------
+    int or ndarray of int
+        Flat index (an int for scalar input).
+    """
     la, ma = np.asarray(l), np.asarray(m)
     if np.any(la < 0) or np.any(np.abs(ma) > la):
         raise ValueError(f"sh_index needs l >= 0 and |m| <= l, got l={l!r}, m={m!r}")
@@ -652,6 +676,16 @@ def clamped_cosine_sh_coefficients(order: int) -> np.ndarray:
     ``Â_0 = π``, ``Â_1 = 2π/3``, ``Â_l = 0`` for odd l > 1 and, for even l,
     ``Â_l = 2π (−1)^{l/2−1} / ((l + 2)(l − 1)) · l! / (2^l ((l/2)!)²)``
     (Ramamoorthi & Hanrahan 2001, Eq. 8–9; ``Â_2 = π/4``, ``Â_4 = −π/24``).
+
+    Parameters
+    ----------
+    order : int
+        Highest degree l, ≥ 0.
+
+    Returns
+    -------
+    ndarray, shape (order + 1,)
+        ``Â_l`` [sr] for l = 0…order.
     """
     order = _check_count(order, "order", 0)
     a = np.zeros(order + 1)

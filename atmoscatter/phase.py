@@ -111,7 +111,18 @@ def rayleigh_phase(cos_theta):
 
 
 def isotropic_phase(cos_theta):
-    """Isotropic phase function ``1/(4π)`` [sr⁻¹], broadcast to the shape of ``cos_theta``."""
+    """Isotropic phase function ``1/(4π)`` [sr⁻¹], broadcast to the shape of ``cos_theta``.
+
+    Parameters
+    ----------
+    cos_theta : array_like
+        Cosine of the scattering angle [-] (only its shape is used).
+
+    Returns
+    -------
+    ndarray
+        ``1/(4π)`` [sr⁻¹] in the shape of ``cos_theta``.
+    """
     mu = _cos(cos_theta)
     # NaN propagates element-wise like the other phase functions
     return np.where(np.isnan(mu), mu, np.asarray(_INV_4PI, dtype=mu.dtype))[()]
@@ -259,7 +270,14 @@ class HenyeyGreensteinPhase:
 
 @dataclass(frozen=True)
 class CornetteShanksPhase:
-    """Cornette–Shanks phase function with parameter ``g`` (see :func:`cornette_shanks_phase`)."""
+    """Cornette–Shanks phase function with parameter ``g`` (see :func:`cornette_shanks_phase`).
+
+    Parameters
+    ----------
+    g : float
+        Shape parameter [-], in (−1, 1); g > 0 scatters forward (its mean cosine is
+        :attr:`asymmetry`, not ``g``).
+    """
 
     g: float = 0.8
 

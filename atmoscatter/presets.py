@@ -178,6 +178,11 @@ def earth_atmosphere(
         values; the table is held constant outside).
     rayleigh : {"standard", "bruneton"}
         Air model (:data:`EARTH_RAYLEIGH`).
+
+    Returns
+    -------
+    Atmosphere
+        Air, aerosol and (optionally) ozone between 6360 and 6420 km radius.
     """
     wl = _wl(wavelengths)
     mie_ext = np.full_like(wl, _BRUNETON_MIE_EXTINCTION)
@@ -203,6 +208,18 @@ def bruneton_atmosphere(wavelengths: Sequence[float] = _RGB, *, ozone: bool = Tr
     Seed-000 Rayleigh constants with an 8 km scale height (τ_R(550 nm) = 0.108), Mie and
     ozone as in :func:`earth_atmosphere`.  For comparisons with the literature that uses
     these constants (Bruneton & Neyret 2008, Bruneton 2017 and renderers built on them).
+
+    Parameters
+    ----------
+    wavelengths : sequence of float
+        Sample wavelengths [nm] (default 680, 550, 440: R, G, B).
+    ozone : bool
+        Include ozone absorption.
+
+    Returns
+    -------
+    Atmosphere
+        The atmosphere (radii 6360/6420 km).
     """
     return earth_atmosphere(wavelengths, ozone=ozone, rayleigh="bruneton")
 
@@ -244,6 +261,11 @@ def earth_turbidity_atmosphere(
         Haze HG asymmetry [-], in (−1, 1).
     rayleigh : {"standard", "bruneton"}
         Air model; T refers to that air's optical depth.
+
+    Returns
+    -------
+    Atmosphere
+        Air, the turbidity's haze (omitted at ``T = 1``) and optionally ozone.
 
     Notes
     -----
@@ -304,6 +326,18 @@ def mars_atmosphere(wavelengths: Sequence[float] = _RGB, *, dust_optical_depth: 
     al. 1999 and Wolff et al. 2009) — the blue absorption gives the butterscotch sky and
     blue sunsets.  An approximate, Mars-*like* preset for rendering and validation, not a
     retrieval of a particular day.
+
+    Parameters
+    ----------
+    wavelengths : sequence of float
+        Sample wavelengths [nm].
+    dust_optical_depth : float
+        Vertical optical depth of the dust [-], ≥ 0.
+
+    Returns
+    -------
+    Atmosphere
+        CO₂ and dust between 3389.5 and 3489.5 km radius.
     """
     wl = _wl(wavelengths)
     tau = float(check_range(dust_optical_depth, "dust_optical_depth", 0.0, np.inf))
@@ -353,6 +387,22 @@ def keller_bohn_atmosphere(
     normalised Rayleigh and HG phases are used.  This is a labelled interpretation that
     reproduces the seed's look, not a measured atmosphere.  The seed's wavelengths are not
     given; the default RGB samples are seed 000's 650/570/475 nm.
+
+    Parameters
+    ----------
+    wavelengths : sequence of float
+        Sample wavelengths [nm]; the first is the "red" reference of Table 1.
+    turbidity : float
+        The seed's ``atmosphereTurbidity`` [-], a factor on both coefficients, > 0.
+    mie_coefficient_red : float
+        Mie scattering coefficient at the red wavelength [m⁻¹], ≥ 0.
+    g : float
+        Henyey–Greenstein asymmetry of the aerosol [-], in (−1, 1).
+
+    Returns
+    -------
+    Atmosphere
+        The atmosphere (radii 6360/6420 km).
     """
     wl = _wl(wavelengths)
     k = float(check_positive(turbidity, "turbidity"))
@@ -377,7 +427,21 @@ PRESETS: dict[str, Callable[..., Atmosphere]] = {
 
 
 def atmosphere_preset(name: str, **kwargs) -> Atmosphere:
-    """Build the preset ``name`` (one of :data:`PRESETS`), passing ``kwargs`` on."""
+    """Build the preset ``name`` (one of :data:`PRESETS`), passing ``kwargs`` on.
+
+    Parameters
+    ----------
+    name : str
+        Preset name, a key of :data:`PRESETS`.
+    **kwargs
+        Keyword arguments of that preset's function (e.g. ``wavelengths`` [nm],
+        ``turbidity``).
+
+    Returns
+    -------
+    Atmosphere
+        The preset atmosphere.
+    """
     if name not in PRESETS:
         raise ValueError(f"atmosphere preset {name!r} is not valid; choose one of {sorted(PRESETS)}")
     return PRESETS[name](**kwargs)

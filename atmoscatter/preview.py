@@ -38,6 +38,18 @@ def auto_exposure(luminance, mask=None) -> float:
     """Exposure [m² cd⁻¹] mapping the median luminance of ``mask`` to 0.5 (exponential).
 
     ``ln 2 / median(L)``; 1 if the image is black.
+
+    Parameters
+    ----------
+    luminance : array_like
+        Luminance [cd m⁻²]; non-finite and non-positive values are ignored.
+    mask : array_like, optional
+        Pixels with ``mask > 0`` are used (default all).
+
+    Returns
+    -------
+    float
+        Exposure [m² cd⁻¹].
     """
     L = np.asarray(luminance, dtype=float)
     if mask is not None:
@@ -49,7 +61,22 @@ def auto_exposure(luminance, mask=None) -> float:
 
 
 def tone_map(values, exposure: float, tone: str = "exponential"):
-    """Map linear values [cd m⁻²] to [0, 1] with ``tone`` at ``exposure`` [m² cd⁻¹]."""
+    """Map linear values [cd m⁻²] to [0, 1] with ``tone`` at ``exposure`` [m² cd⁻¹].
+
+    Parameters
+    ----------
+    values : array_like
+        Linear luminance or RGB [cd m⁻²]; NaN counts as 0, negative values are clipped to 0.
+    exposure : float
+        Scale applied before the curve [m² cd⁻¹], in (0, inf).
+    tone : {"exponential", "reinhard", "clip"}
+        ``1 − e^{−x}`` (seed 002), ``x/(1 + x)`` or ``min(x, 1)`` of ``x = exposure·values``.
+
+    Returns
+    -------
+    ndarray
+        Display values [-] in [0, 1], same shape as ``values`` (each channel mapped on its own).
+    """
     if tone not in TONES:
         raise ValueError(f"tone={tone!r} is not valid; choose one of {sorted(TONES)}")
     if not (exposure > 0 and math.isfinite(exposure)):
@@ -64,7 +91,18 @@ def tone_map(values, exposure: float, tone: str = "exponential"):
 
 
 def srgb_encode(v):
-    """IEC 61966-2-1 sRGB transfer function (linear [0, 1] → encoded [0, 1])."""
+    """IEC 61966-2-1 sRGB transfer function (linear [0, 1] → encoded [0, 1]).
+
+    Parameters
+    ----------
+    v : array_like
+        Linear values [-] in [0, 1].
+
+    Returns
+    -------
+    ndarray
+        Encoded values [-] in [0, 1].
+    """
     v = np.clip(v, 0.0, 1.0)
     return np.where(v <= 0.0031308, 12.92 * v, 1.055 * np.power(v, 1.0 / 2.4) - 0.055)
 
@@ -86,6 +124,11 @@ def preview_array(rgb, *, exposure=None, tone="exponential", alpha="none", mask=
         Alpha of the map (used by ``alpha="mask"`` and by the auto exposure).
     transparency : float
         Exponent of seed 002's alpha ``(r + g + b)^transparency``, in (0, inf).
+
+    Returns
+    -------
+    ndarray of uint8, shape (h, w, 3) or (h, w, 4)
+        sRGB-encoded pixels (with alpha unless ``alpha="none"``).
     """
     if alpha not in ALPHAS:
         raise ValueError(f"alpha={alpha!r} is not valid; choose one of {sorted(ALPHAS)}")
@@ -115,7 +158,20 @@ def preview_array(rgb, *, exposure=None, tone="exponential", alpha="none", mask=
 
 
 def write_png(path, pixels) -> str:
-    """Write 8-bit RGB/RGBA/grey ``pixels`` (h, w[, c]) as a PNG, atomically."""
+    """Write 8-bit RGB/RGBA/grey ``pixels`` (h, w[, c]) as a PNG, atomically.
+
+    Parameters
+    ----------
+    path : str or path-like
+        Output file (written to a temporary name, then moved into place).
+    pixels : array_like of uint8, shape (h, w) or (h, w, c) with c in {1, 3, 4}
+        Grey, RGB or RGBA pixel values.
+
+    Returns
+    -------
+    str
+        ``path``.
+    """
     p = np.ascontiguousarray(pixels, dtype=np.uint8)
     if p.ndim == 2:
         p = p[..., None]
@@ -146,6 +202,27 @@ def write_preview(source, path, *, exposure=None, tone=None, alpha="none",
 
     ``tone``/``exposure`` default to the scene's (recorded in the EXR header),
     else ``exponential`` and :func:`auto_exposure`.
+
+    Parameters
+    ----------
+    source : SkyImage, ExrImage, str or path-like
+        The rendered image, or an EXR sky map (read with :func:`read_exr`).
+    path : str or path-like
+        Output PNG.
+    exposure : float, optional
+        [m² cd⁻¹]; default the scene's, else :func:`auto_exposure`.
+    tone : {"exponential", "reinhard", "clip"}, optional
+        Default the scene's, else ``"exponential"``.
+    alpha : {"none", "mask", "sky"}
+        PNG alpha: none, the map's mask (sky 1, ground 0), or seed 002's
+        ``(r + g + b)^transparency``.
+    transparency : float
+        Exponent of ``alpha="sky"``, in (0, inf).
+
+    Returns
+    -------
+    str
+        The path written.
     """
     from .exr import ExrImage, read_exr  # noqa: PLC0415
 

@@ -200,6 +200,11 @@ def air_king_factor(wavelength, *, co2_ppm=STANDARD_CO2_PPM):
         Wavelength [nm], > 0 (Bates' fits cover 200–1000 nm and beyond in the IR).
     co2_ppm : float
         CO₂ mixing ratio [ppm], ≥ 0 (default 360, Bodhaine's Table 3).
+
+    Returns
+    -------
+    ndarray
+        King factor [-], in the shape of ``wavelength``.
     """
     lam_in = _wavelength(wavelength)
     l2 = (lam_in.astype(np.float64) * 1e-3) ** -2
@@ -285,6 +290,16 @@ def junge_k_factor(wavelength):
 
     Linear in wavelength from 0.656 at 400 nm to 0.69 at 770 nm (the two values seed 004
     quotes from Bullrich 1964), constant outside that range.
+
+    Parameters
+    ----------
+    wavelength : array_like
+        Wavelength [nm].
+
+    Returns
+    -------
+    ndarray
+        K(λ) [-].
     """
     lam = _wavelength(wavelength)
     return np.interp(lam, *_K_NODES)
@@ -404,6 +419,22 @@ def mie_absorption(wavelength, *, turbidity=2.0, single_scattering_albedo=0.9, *
     With the same arguments, ``mie_scattering + mie_absorption = haze_extinction``: the
     turbidity fixes the extinction whatever ω is.  Default ω = 0.9 (Bruneton 2017);
     ``ω`` must be in (0, 1].
+
+    Parameters
+    ----------
+    wavelength : array_like
+        Wavelength [nm].
+    turbidity : float
+        Turbidity [-], ≥ 1.
+    single_scattering_albedo : float
+        ω [-], in (0, 1].
+    **haze_kwargs
+        Further arguments of :func:`haze_extinction`.
+
+    Returns
+    -------
+    ndarray
+        Absorption coefficient at sea level [m⁻¹].
     """
     w = check_range(single_scattering_albedo, "single_scattering_albedo", 0.0, 1.0, low_inclusive=False)
     ext = haze_extinction(wavelength, turbidity=turbidity, **haze_kwargs)
@@ -434,6 +465,11 @@ def ozone_absorption(wavelength, *, column=300.0, layer_thickness=15000.0):
         Total ozone column [DU] (default 300), ≥ 0.
     layer_thickness : float
         Integral of the relative density profile [m] (default 15000).
+
+    Returns
+    -------
+    ndarray
+        Absorption coefficient at the peak of the ozone layer [m⁻¹].
     """
     lam = _wavelength(wavelength)
     col = check_positive(column, "column", allow_zero=True, unit="DU")

@@ -424,6 +424,16 @@ def as_scene(scene) -> Scene:
 
     ``None`` is the default scene, a mapping goes through :meth:`Scene.from_dict`, a
     ``str``/path-like through :func:`load_scene`.  Anything else raises :class:`TypeError`.
+
+    Parameters
+    ----------
+    scene : Scene, mapping, str, path-like or None
+        What to turn into a scene.
+
+    Returns
+    -------
+    Scene
+        ``scene`` itself if it is already a :class:`Scene`.
     """
     if scene is None:
         return Scene()
@@ -445,6 +455,16 @@ def parse_time(value: str) -> _dt.datetime:
 
     Returns an aware :class:`datetime.datetime` in UTC.  ``Z`` is accepted as
     the UTC designator.  Raises :class:`ValueError` naming the value.
+
+    Parameters
+    ----------
+    value : str
+        ISO 8601 date-time, e.g. ``"2024-06-21T09:00:00Z"``.
+
+    Returns
+    -------
+    datetime.datetime
+        Timezone-aware, in UTC.
     """
     if isinstance(value, _dt.datetime):
         t = value
@@ -529,6 +549,18 @@ def load_scene(path: str | os.PathLike | None = None, *, overrides=None) -> Scen
     ``key=value`` strings (the CLI's ``--set``) — are applied on top; with
     ``path=None`` they apply to the defaults.  Unknown fields and invalid
     values raise :class:`ValueError` naming the file and the field.
+
+    Parameters
+    ----------
+    path : str or path-like, optional
+        Scene file (``.toml`` or ``.json``); None for the default scene.
+    overrides : mapping or iterable of str, optional
+        Field values (or ``"key=value"`` strings) applied on top of the file.
+
+    Returns
+    -------
+    Scene
+        The validated scene (angles in the file in degrees, as the field names say).
     """
     data = _read_scene_file(path) if path is not None else {}
     atm = data.get("atmosphere")
@@ -702,7 +734,18 @@ def _ground_value_text(scene: Scene) -> str:
 
 
 def is_atmosphere_file(value) -> bool:
-    """True if a scene's ``atmosphere`` value names a custom atmosphere file."""
+    """True if a scene's ``atmosphere`` value names a custom atmosphere file.
+
+    Parameters
+    ----------
+    value : object
+        The ``atmosphere`` field.
+
+    Returns
+    -------
+    bool
+        True for a string ending in ``.toml`` or ``.json`` (any case).
+    """
     return isinstance(value, str) and value.lower().endswith((".toml", ".json"))
 
 
@@ -719,6 +762,11 @@ def auto_sampling_rule() -> dict:
     ``limit_dE2000`` and ``statistic`` (the target), and the measured ΔE2000 of 3-wavelength
     sampling against the reference spectrum by sun elevation
     (``rgb_dE2000_by_elevation``, worst atmosphere).
+
+    Returns
+    -------
+    dict
+        The rule (keys above; angles [deg], wavelengths [nm]).
     """
     return dict(_auto_rule())
 
@@ -801,6 +849,20 @@ def plan(scene: Scene, *, batch_size: int | None = None, atmosphere=None) -> Pla
     preset for the physical models; its wavelengths are then the ones
     evaluated (three or fewer: expanded as a power law; more: integrated as a
     spectrum, which should cover 380–780 nm).
+
+    Parameters
+    ----------
+    scene : Scene
+        What to render.
+    batch_size : int, optional
+        Directions per model call, ≥ 1 (default :data:`DEFAULT_BATCH_SIZE`).
+    atmosphere : Atmosphere, optional
+        Replaces the scene's preset for the physical models.
+
+    Returns
+    -------
+    Plan
+        The decisions and their reasons (``Plan.notes``); the renderer follows it exactly.
     """
     from .models import get_model  # noqa: PLC0415
 

@@ -34,7 +34,15 @@ SUN_ANGULAR_RADIUS: float = 695700.0 / 149597870.7
 
 @lru_cache(maxsize=1)
 def solar_spectrum_table() -> tuple[np.ndarray, np.ndarray]:
-    """The shipped ASTM G-173 ETR table: ``(wavelength [nm], irradiance [W m⁻² nm⁻¹])``."""
+    """The shipped ASTM G-173 ETR table: ``(wavelength [nm], irradiance [W m⁻² nm⁻¹])``.
+
+    Returns
+    -------
+    wavelength : ndarray
+        Wavelengths [nm] (read-only).
+    irradiance : ndarray
+        Extraterrestrial spectral irradiance at 1 AU [W m⁻² nm⁻¹] (read-only).
+    """
     path = resources.files("atmoscatter") / "data" / "astm_g173_etr.csv"
     data = np.loadtxt(str(path), delimiter=",", comments="#")
     wl, e = data[:, 0], data[:, 1]

@@ -99,6 +99,11 @@ def us_standard_1976_profile(step: float = 1000.0, top: float = 86000.0) -> Tabu
         the boundary nodes the error would be 0.24 % at 1 km.
     top : float
         Highest altitude [m] (≤ 86 km); above it the density is 0.
+
+    Returns
+    -------
+    TabulatedProfile
+        Relative density [-] against altitude [m].
     """
     step = float(check_positive(step, "step", unit="m"))
     top = float(check_range(top, "top", step, 86000.0, unit="m"))

@@ -242,6 +242,18 @@ def hoffman_preetham_air_scattering(wavelengths=HOFFMAN_PREETHAM_WAVELENGTHS, *,
     6.95e-6, 1.18e-5, 2.44e-5 m⁻¹ (errata 000.4).  ``air="standard"``: real dry air,
     :func:`atmoscatter.rayleigh_scattering_standard_air` (Bodhaine et al. 1999), 15 % lower
     at 550 nm; with the 8.4 km optical length its zenith optical depth is 0.0965 at 550 nm.
+
+    Parameters
+    ----------
+    wavelengths : array_like
+        Wavelengths [nm] (default 650, 570, 475: the seed's R, G, B).
+    air : {"seed000", "standard"}
+        Air model.
+
+    Returns
+    -------
+    ndarray
+        Rayleigh scattering coefficient at sea level [m⁻¹], one per wavelength.
     """
     check_option(air, "air", _AIR_MODELS)
     return np.asarray(_AIR_MODELS[air](np.asarray(wavelengths, dtype=np.float64)), dtype=np.float64)
@@ -324,6 +336,16 @@ def solar_illuminance_rgb(colourspace: str = "sRGB") -> np.ndarray:
     integrated with the CIE 1931 CMFs at 683 lm/W (Y ≈ 133 klx, cf. the luminous solar
     constant 133.8 klx of Darula, Kittler & Gueymard 2005) and converted to linear RGB of
     ``colourspace``. [lx]
+
+    Parameters
+    ----------
+    colourspace : str
+        colour-science RGB colourspace name (default ``"sRGB"``).
+
+    Returns
+    -------
+    ndarray, shape (3,)
+        Linear RGB illuminance [lx].
     """
     return _solar_rgb(colourspace).copy()
 
