@@ -77,12 +77,12 @@ SCENES = {
 }
 
 DEFAULT = (ms.MULTIPLE_SCATTERING_GRID, 1e-3)
-REFERENCE = (MultipleScatteringGrid(n_altitude=28, n_sun=64, n_mu=32, n_phi=13, order=4), 1e-5)
+REFERENCE = (MultipleScatteringGrid(n_altitude=28, n_sun=64, n_mu=32, n_phi=25, order=4), 1e-5)
 KNOBS = {
     "n_sun": (20, 32, 48),
-    "n_mu": (12, 16, 24, 32),
-    "n_phi": (5, 9, 13),
-    "n_altitude": (12, 16, 20, 28),
+    "n_mu": (16, 24, 32),
+    "n_phi": (9, 13, 17, 21),
+    "n_altitude": (12, 20, 28),
     "order": (2, 3, 4),
     "order_tolerance": (1e-2, 1e-3, 1e-4),
 }

@@ -130,7 +130,7 @@ class MultipleScatteringGrid:
     n_altitude: int = 20
     n_sun: int = 32
     n_mu: int = 24
-    n_phi: int = 9
+    n_phi: int = 17
     order: int = 3
     max_sun_zenith: float = 120.0
     horizon_density: float = 6.0
@@ -874,9 +874,9 @@ def multiple_scattering(
         The field depends only on the atmosphere, albedo, orders and grid, and is cached
         in the process and on disk (the first call for an atmosphere costs seconds —
         ``benchmarks/bench_multiple.py`` — later calls and later processes only the
-        view-path gather).  At low sun the azimuth resolution dominates the remaining
-        error: ``MultipleScatteringGrid(n_phi=13)`` removes most of it at sunset and in
-        twilight (see the ``n_phi`` row of the study in ``docs/convergence.md``).
+        view-path gather).  At low sun the azimuth resolution dominates the error (the
+        ``n_phi`` row of the study in ``docs/convergence.md``; the default 17 azimuths,
+        11.25° apart, were chosen from it).
     batch_size : int
         Directions per batch of the gather (bounds memory).
 
