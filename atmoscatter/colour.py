@@ -276,31 +276,41 @@ def _gamut_map_inplace(rgb: np.ndarray, policy: str, lum: np.ndarray) -> tuple:
     negative raw channel (0 when none is negative).  Only the out-of-gamut rows are touched
     (NaN rows never are), so the in-gamut ones keep their exact values.
     """
-    low = rgb.min(axis=-1)
-    idx = np.flatnonzero(low < 0)
-    if idx.size == 0:
+    # (min over the short last axis with ``min(axis=-1)`` is ~40x slower than this)
+    low = np.minimum(np.minimum(rgb[:, 0], rgb[:, 1]), rgb[:, 2])
+    neg = low < 0.0
+    k = int(np.count_nonzero(neg))
+    if k == 0:
         return 0, 0, 0.0, 0.0
-    m = low[idx].astype(np.float64)
+    whole = k == len(rgb)  # e.g. a low Hoffman–Preetham sun: no gather/scatter copies
+    m = (low if whole else low[neg]).astype(np.float64)
     min_value = float(m.min())
     if policy == "none":
-        return int(idx.size), 0, 0.0, min_value
+        return k, 0, 0.0, min_value
     if policy == "clip":
-        rgb[idx] = np.maximum(rgb[idx], 0.0)
-        return int(idx.size), int(idx.size), 0.0, min_value
-    c = rgb[idx].astype(np.float64)
+        if whole:
+            np.maximum(rgb, 0.0, out=rgb)
+        else:
+            rgb[neg] = np.maximum(rgb[neg], 0.0)
+        return k, k, 0.0, min_value
+    c = (rgb if whole else rgb[neg]).astype(np.float64)
     # a: the achromatic colour (a, a, a) of the pixel's luminance Y = c·lum.  Points
     # a + s (c − a) keep Y for every s (Y is linear in RGB); the largest s ≤ 1 with all
     # channels ≥ 0 puts the lowest channel m on 0: s = a / (a − m), in (0, 1) for a > 0 > m.
     # In XYZ the result is a positive mix of the colourspace white and the raw colour, so its
     # chromaticity stays on the line from the white point through the raw one (same hue,
     # lower purity).  Y ≤ 0 has no non-negative colour of that luminance: black (s = 0).
-    a = (c @ lum) / float(lum.sum())
-    pos = a > 0.0
-    s = np.where(pos, a / np.where(pos, a - m, 1.0), 0.0)
-    out = a[:, None] + s[:, None] * (c - a[:, None])
-    np.maximum(out, 0.0, out=out)  # the lowest channel is 0 up to rounding (~1e-16 a)
-    rgb[idx] = out
-    return int(idx.size), int(idx.size), float(1.0 - s.min()), min_value
+    a = c @ (lum / float(lum.sum()))
+    s = np.divide(a, a - m, out=np.zeros_like(a), where=a > 0.0)
+    c -= a[:, None]
+    c *= s[:, None]
+    c += a[:, None]
+    np.maximum(c, 0.0, out=c)  # the lowest channel is 0 up to rounding (~1e-16 a)
+    if whole:
+        rgb[...] = c
+    else:
+        rgb[neg] = c
+    return k, k, float(1.0 - s.min()), min_value
 
 
 def rgb_into_gamut(rgb, colourspace: str = "sRGB", *, policy: str = "map"):
@@ -331,8 +341,8 @@ def rgb_into_gamut(rgb, colourspace: str = "sRGB", *, policy: str = "map"):
     >>> import numpy as np
     >>> raw = np.array([1.0, 0.5, -0.1])   # outside sRGB: negative blue
     >>> out = rgb_into_gamut(raw)
-    >>> print(np.round(out, 4))
-    [0.9341 0.5095 0.    ]
+    >>> print([round(float(v), 4) for v in out])
+    [0.9341, 0.5095, 0.0]
     >>> print(round(float(linear_rgb_to_XYZ(out)[1]), 6), round(float(linear_rgb_to_XYZ(raw)[1]), 6))
     0.562951 0.562951
     """

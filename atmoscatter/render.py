@@ -496,7 +496,8 @@ def render(scene: Scene | None = None, *, directions=None, atmosphere=None,
             vals[s:e] = v
         if rgb is not None:
             np.matmul(v, m_rgb, out=rgb[s:e], casting="same_kind")
-            if e > s and rgb[s:e].min() < 0.0:  # the policy is applied after the sun disc
+            # (not ``min() < 0``: a NaN would hide the negative values of the batch)
+            if e > s and not rgb[s:e].min() >= 0.0:  # the policy is applied after the sun disc
                 out_of_gamut.append((s, e))
         if spec is not None:
             spec[s:e] = b["spectral"]
@@ -531,7 +532,7 @@ def render(scene: Scene | None = None, *, directions=None, atmosphere=None,
                 vals[i] += add.astype(np.float32)
             if rgb is not None:
                 rgb[i] += (add @ m_rgb).astype(np.float32)
-                if rgb[i].min() < 0.0 and not any(a <= i < b for a, b in out_of_gamut):
+                if not rgb[i].min() >= 0.0 and not any(a <= i < b for a, b in out_of_gamut):
                     out_of_gamut.append((i, i + 1))
             if spec is not None:
                 spec[i] += (ctx.disc_spec * scale).astype(np.float32)

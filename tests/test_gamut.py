@@ -288,3 +288,32 @@ def test_exr_carries_the_policy(tmp_path):
               "atmoscatter:gamut_mapped_pixels", "atmoscatter:gamut_max_desaturation"):
         assert back.header[k] == img.metadata[k]
     assert back.scene().gamut == "map"
+
+
+def test_batch_with_a_nan_pixel_is_still_mapped():
+    """A NaN pixel must not hide the out-of-gamut pixels of its batch (``min()`` of a batch
+    with a NaN is NaN); the NaN itself is left alone."""
+    from atmoscatter.models import ModelAdapter, register_model, unregister_model
+
+    def prepare(scene, plan):
+        def evaluate(d):
+            # saturated orange (sRGB blue < 0) everywhere, NaN near the zenith
+            xyz = np.tile([0.5, 0.3, 0.01], (len(d), 1)) * 1000.0
+            xyz[d[:, 2] > 0.95] = np.nan
+            return {"XYZ": xyz}
+        return evaluate
+
+    register_model(ModelAdapter(name="gamut_nan", description="orange with NaN near the zenith",
+                                prepare=prepare, error_estimate="exact"), replace=True)
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", ac.GamutWarning)
+            img = ac.render(ac.Scene(model="gamut_nan", sun_elevation_deg=30.0, width=16,
+                                     height=8, symmetry="off"), workers=1)
+    finally:
+        unregister_model("gamut_nan")
+    nan = np.isnan(img.rgb).any(axis=-1)
+    assert nan.any() and not nan.all()
+    assert np.nanmin(img.rgb) >= 0.0
+    sky = img.alpha > 0  # below the horizon: the (black) ground fill, in gamut
+    assert int(img.metadata["atmoscatter:gamut_mapped_pixels"]) == (sky & ~nan).sum() > 0
