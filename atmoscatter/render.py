@@ -83,7 +83,8 @@ class SkyImage:
     directions_set : DirectionSet
         Where each pixel/vertex looks (see :attr:`directions`).
     rgb : ndarray or None
-        Linear RGB in ``scene.colourspace`` [cd m⁻²], shape ``shape + (3,)``.
+        Linear RGB in ``scene.colourspace`` [cd m⁻²], shape ``shape + (3,)``, after the
+        scene's ``gamut`` policy (default: no negative channel; see the module notes).
     xyz : ndarray or None
         CIE XYZ [cd m⁻²] when ``output`` is ``xyz``.
     luminance_only : ndarray or None
