@@ -15,6 +15,16 @@ Public objects
 :func:`sun_disc_radiance`
     Transmitted, limb-darkened radiance of the solar disc (XYZ [cd m⁻²]).
 
+Out-of-gamut colours
+--------------------
+Physical skies near the horizon at low sun can be more saturated than the RGB colourspace
+allows: their RGB has a negative channel although their XYZ is non-negative.  The scene's
+``gamut`` policy decides what the RGB layer holds (:func:`atmoscatter.rgb_into_gamut`):
+``map`` (default) moves such colours into the gamut keeping luminance and hue, ``clip`` sets
+negative channels to 0, ``none`` keeps the raw values.  The counts are recorded in
+:attr:`SkyImage.metadata` (``atmoscatter:gamut_*``, written to the EXR header).  XYZ,
+luminance and spectral layers are never changed.
+
 Memory
 ------
 Directions are generated per batch from their indices (never all at once);
@@ -30,6 +40,7 @@ from __future__ import annotations
 import math
 import os
 import threading
+import warnings
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 
@@ -42,13 +53,23 @@ from .models import get_model
 from .scene import Plan, Scene, as_scene
 from .scene import plan as make_plan
 
-__all__ = ["SkyImage", "render", "render_batches", "sun_disc_radiance", "LIMB_DARKENING_U"]
+__all__ = ["SkyImage", "render", "render_batches", "sun_disc_radiance", "LIMB_DARKENING_U",
+           "GamutWarning", "GAMUT_WARN_FRACTION"]
 
 #: Linear limb-darkening coefficient u in ``I(μ)/I(1) = 1 − u (1 − μ)``: the
 #: Eddington approximation for a grey atmosphere, ``I(μ) ∝ (2 + 3μ)/5`` (e.g.
 #: Mihalas 1978, *Stellar Atmospheres*, §3-3), u = 0.6 at all wavelengths.  The
 #: real Sun darkens more in the blue than in the red; that dependence is not modelled.
 LIMB_DARKENING_U = 0.6
+
+#: Fraction of an image's pixels [1] above which :func:`render` warns (:class:`GamutWarning`)
+#: that its ``gamut`` policy changed out-of-gamut RGB colours.
+GAMUT_WARN_FRACTION = 0.01
+
+
+class GamutWarning(UserWarning):
+    """More than :data:`GAMUT_WARN_FRACTION` of a render's RGB pixels were out of gamut and
+    were mapped or clipped (the scene's ``gamut`` policy); XYZ and spectral layers are exact."""
 
 
 @dataclass
@@ -62,7 +83,8 @@ class SkyImage:
     directions_set : DirectionSet
         Where each pixel/vertex looks (see :attr:`directions`).
     rgb : ndarray or None
-        Linear RGB in ``scene.colourspace`` [cd m⁻²], shape ``shape + (3,)``.
+        Linear RGB in ``scene.colourspace`` [cd m⁻²], shape ``shape + (3,)``, after the
+        scene's ``gamut`` policy (default: no negative channel; see the module notes).
     xyz : ndarray or None
         CIE XYZ [cd m⁻²] when ``output`` is ``xyz``.
     luminance_only : ndarray or None
@@ -461,6 +483,7 @@ def render(scene: Scene | None = None, *, directions=None, atmosphere=None,
     spec = np.empty((n, ctx.nspec), dtype=np.float32) if ctx.nspec else None
     alpha = np.empty(n, dtype=np.float32)
     rgb = np.empty((n, 3), dtype=np.float32) if chroma_rgb else None
+    out_of_gamut = []  # (start, stop) of the batches whose raw RGB has a channel < 0
     if chroma_rgb:
         from .colour import XYZ_to_linear_rgb  # noqa: PLC0415
 
@@ -474,6 +497,9 @@ def render(scene: Scene | None = None, *, directions=None, atmosphere=None,
             vals[s:e] = v
         if rgb is not None:
             np.matmul(v, m_rgb, out=rgb[s:e], casting="same_kind")
+            # (not ``min() < 0``: a NaN would hide the negative values of the batch)
+            if e > s and not rgb[s:e].min() >= 0.0:  # the policy is applied after the sun disc
+                out_of_gamut.append((s, e))
         if spec is not None:
             spec[s:e] = b["spectral"]
         alpha[s:e] = 1.0 if b["alpha"] is None else b["alpha"]
@@ -507,6 +533,8 @@ def render(scene: Scene | None = None, *, directions=None, atmosphere=None,
                 vals[i] += add.astype(np.float32)
             if rgb is not None:
                 rgb[i] += (add @ m_rgb).astype(np.float32)
+                if not rgb[i].min() >= 0.0 and not any(a <= i < b for a, b in out_of_gamut):
+                    out_of_gamut.append((i, i + 1))
             if spec is not None:
                 spec[i] += (ctx.disc_spec * scale).astype(np.float32)
 
@@ -523,4 +551,58 @@ def render(scene: Scene | None = None, *, directions=None, atmosphere=None,
         img.spectral = spec.reshape(shape + (ctx.nspec,))
     img.alpha = alpha.reshape(shape)
     img.metadata = _metadata(scene, p, dset, ctx.adapter)
+    if rgb is not None:
+        img.metadata.update(_apply_gamut_policy(rgb, out_of_gamut, scene, nw))
     return img
+
+
+_GAMUT_DESCRIPTIONS = {
+    "map": "map: RGB colours outside the colourspace's gamut (a channel < 0) desaturated toward "
+           "the achromatic colour of the same luminance until the lowest channel is 0 "
+           "(luminance Y and hue kept)",
+    "clip": "clip: negative RGB channels set to 0 (luminance and hue of those pixels change)",
+    "none": "none: raw RGB, out-of-gamut colours keep their negative channels",
+}
+
+
+def _apply_gamut_policy(rgb, ranges, scene, workers) -> dict:
+    """Apply ``scene.gamut`` in place to the rows ``ranges`` of ``rgb`` (n, 3); return the
+    ``atmoscatter:gamut_*`` metadata and warn (:class:`GamutWarning`) when the policy changed
+    more than :data:`GAMUT_WARN_FRACTION` of the pixels.  Only batches that hold a negative
+    channel are visited, so an in-gamut render pays one ``min`` per batch."""
+    from .colour import _gamut_map_inplace, _luminance_coefficients  # noqa: PLC0415
+
+    policy = scene.gamut
+    lum = _luminance_coefficients(scene.colourspace)
+
+    def one(bounds):
+        return _gamut_map_inplace(rgb[bounds[0]:bounds[1]], policy, lum)
+
+    if workers > 1 and len(ranges) > 1:
+        with ThreadPoolExecutor(max_workers=workers) as ex:
+            stats = list(ex.map(one, ranges))
+    else:
+        stats = [one(r) for r in ranges]
+    n = len(rgb)
+    out = sum(st[0] for st in stats)
+    changed = sum(st[1] for st in stats)
+    desat = max((st[2] for st in stats), default=0.0)
+    low = min((st[3] for st in stats), default=0.0)
+    md = {
+        "atmoscatter:gamut": _GAMUT_DESCRIPTIONS[policy],
+        "atmoscatter:gamut_out_of_gamut_pixels": str(out),
+        "atmoscatter:gamut_out_of_gamut_fraction": f"{out / n if n else 0.0:.6g}",
+        "atmoscatter:gamut_mapped_pixels": str(changed),
+        "atmoscatter:gamut_min_raw_value": f"{low:.6g}",
+    }
+    if policy == "map":
+        md["atmoscatter:gamut_max_desaturation"] = f"{desat:.6g}"
+    if n and changed > GAMUT_WARN_FRACTION * n:
+        how = ("mapped into it keeping luminance and hue (largest desaturation "
+               f"{desat:.2f})" if policy == "map" else "clipped to 0")
+        warnings.warn(
+            f"{changed} of {n} RGB pixels ({100.0 * changed / n:.1f} %) were outside the "
+            f"{scene.colourspace} gamut (lowest channel {low:.3g} cd m-2) and were {how}; "
+            "XYZ and spectral layers are exact (output='xyz', a wider colourspace such as "
+            "'ACES2065-1', or gamut='none' for the raw values)", GamutWarning, stacklevel=3)
+    return md

@@ -35,6 +35,7 @@ from dataclasses import dataclass, field, fields
 import numpy as np
 
 from .atmosphere import load_atmosphere
+from .colour import GAMUT_POLICIES
 from .sun import earth_sun_distance, sun_position
 
 __all__ = [
@@ -156,6 +157,13 @@ class Scene:
         saves work), ``on`` or ``off``.
     method : str or None
         Quadrature method passed to the numerical models (``None`` = default).
+    gamut : str
+        Out-of-gamut policy of the RGB output (colours with a negative channel in
+        ``colourspace``; XYZ, luminance and spectral layers are never changed):
+        ``map`` (default: desaturated toward the achromatic colour of the same luminance
+        until the lowest channel is 0 — luminance Y and hue kept), ``clip`` (negative
+        channels set to 0) or ``none`` (raw values, negative light included).  See
+        :func:`atmoscatter.rgb_into_gamut`; the render's counts go into the EXR header.
     """
 
     name: str = "sky"
@@ -185,6 +193,7 @@ class Scene:
     tone: str = "exponential"
     symmetry: str = "auto"
     method: str | None = None
+    gamut: str = "map"
 
     # ------------------------------------------------------------------
     def __post_init__(self):
@@ -373,7 +382,7 @@ def _validate(s: Scene) -> None:
            f"wavelength_step must be in [1, 100] nm, got {s.wavelength_step!r}")
     for name, options in (("projection", PROJECTIONS), ("output", OUTPUTS),
                           ("sampling", SAMPLINGS), ("precision", PRECISIONS), ("tone", TONES),
-                          ("symmetry", SYMMETRY)):
+                          ("symmetry", SYMMETRY), ("gamut", GAMUT_POLICIES)):
         v = getattr(s, name)
         _check(v in options, f"{name}={v!r} is not valid; choose one of {sorted(options)}")
     if is_atmosphere_file(s.atmosphere):
