@@ -124,7 +124,28 @@ def spectral_to_XYZ(values, wavelengths):
 
 
 def xyY_to_XYZ(xyY):
-    """CIE xyY → XYZ (last axis).  ``y = 0`` gives XYZ = 0 (black), not NaN."""
+    """CIE xyY → XYZ (last axis).  ``y = 0`` gives XYZ = 0 (black), not NaN.
+
+    Parameters
+    ----------
+    xyY : array_like, shape (..., 3)
+        Chromaticity ``x``, ``y`` [1] and luminance ``Y`` on the last axis (``Y`` in any
+        unit, typically cd m⁻²).  float32 stays float32; integers become float64.
+
+    Returns
+    -------
+    ndarray, shape (..., 3)
+        ``X = x Y / y``, ``Y``, ``Z = (1 − x − y) Y / y`` in the unit of ``Y``; 0 where
+        ``y = 0``.
+
+    Raises
+    ------
+    TypeError
+        If ``xyY`` is not numeric.
+    IndexError
+        If the last axis has fewer than 3 entries (a longer axis is not rejected: only its
+        first three entries are read).
+    """
     a = as_float_array(xyY, "xyY")
     x, y, Y = a[..., 0], a[..., 1], a[..., 2]
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -133,7 +154,31 @@ def xyY_to_XYZ(xyY):
 
 
 def XYZ_to_xyY(XYZ, *, black_xy=(0.3127, 0.3290)):
-    """CIE XYZ → xyY (last axis).  Black (X+Y+Z = 0) gets chromaticity ``black_xy`` (D65)."""
+    """CIE XYZ → xyY (last axis).  Black (X+Y+Z = 0) gets chromaticity ``black_xy`` (D65).
+
+    Parameters
+    ----------
+    XYZ : array_like, shape (..., 3)
+        CIE XYZ on the last axis, in any unit (typically cd m⁻²).  float32 stays float32;
+        integers become float64.
+    black_xy : tuple of float, optional
+        Chromaticity ``(x, y)`` [1] given to black pixels (``X + Y + Z = 0``); default
+        ``(0.3127, 0.3290)``, CIE D65.
+
+    Returns
+    -------
+    ndarray, shape (..., 3)
+        ``x = X / (X + Y + Z)``, ``y = Y / (X + Y + Z)`` [1] and ``Y`` in the unit of the
+        input.
+
+    Raises
+    ------
+    TypeError
+        If ``XYZ`` is not numeric.
+    IndexError
+        If the last axis has fewer than 3 entries (a longer axis is not rejected: only its
+        first three entries are read).
+    """
     a = as_float_array(XYZ, "XYZ")
     s = a[..., 0] + a[..., 1] + a[..., 2]
     ok = s != 0
@@ -211,7 +256,17 @@ def _colourspace_data(name) -> dict | None:
 
 
 def colourspace_names() -> list[str]:
-    """Names of the RGB colourspaces colour-science provides (valid ``colourspace`` values)."""
+    """Names of the RGB colourspaces colour-science provides (valid ``colourspace`` values).
+
+    Read from the shipped table ``data/colourspaces.json`` (colour-science is not imported).
+    The ``colourspace`` arguments also accept the lower-case, slugified and canonical
+    variants colour-science accepts (e.g. ``"srgb"``, ``"iturbt2020"``), which are not listed.
+
+    Returns
+    -------
+    list of str
+        The colourspace keys of ``colour.RGB_COLOURSPACES``, sorted.
+    """
     return sorted(_colourspace_table()["colourspaces"])
 
 
@@ -239,6 +294,28 @@ def XYZ_to_linear_rgb(XYZ, colourspace: str = "sRGB"):
     taken as absolute (an equal-RGB pixel has the colourspace white's
     chromaticity, D65 for sRGB).  Units follow the input (cd m⁻² in, cd m⁻² out, with
     ``Y = 0.2126 R + 0.7152 G + 0.0722 B`` for sRGB).  float32 in → float32 out.
+
+    Parameters
+    ----------
+    XYZ : array_like, shape (..., 3)
+        CIE XYZ on the last axis, in any unit (typically cd m⁻²).
+    colourspace : str, optional
+        RGB colourspace, one of :func:`colourspace_names` or a variant colour-science
+        accepts (e.g. ``"srgb"``); default ``"sRGB"``.
+
+    Returns
+    -------
+    ndarray, shape (..., 3)
+        Linear R, G, B in the unit of ``XYZ``.  Out-of-gamut colours have negative
+        channels (see :func:`rgb_into_gamut`); nothing is clipped.
+
+    Raises
+    ------
+    ValueError
+        If ``colourspace`` is unknown (the message lists the valid names), or if the last
+        axis of ``XYZ`` is not of length 3.
+    TypeError
+        If ``XYZ`` is not numeric.
     """
     a = as_float_array(XYZ, "XYZ")
     MT, _ = _matrices(colourspace)
@@ -250,6 +327,28 @@ def linear_rgb_to_XYZ(rgb, colourspace: str = "sRGB"):
 
     Differs from colour-science's own RGB → XYZ matrix by < 1e-4 for sRGB (whose published
     matrices are rounded to 4 decimals).
+
+    Parameters
+    ----------
+    rgb : array_like, shape (..., 3)
+        Linear R, G, B on the last axis (no transfer function), in any unit (typically
+        cd m⁻²).  float32 stays float32.
+    colourspace : str, optional
+        RGB colourspace, one of :func:`colourspace_names` or a variant colour-science
+        accepts (e.g. ``"srgb"``); default ``"sRGB"``.
+
+    Returns
+    -------
+    ndarray, shape (..., 3)
+        CIE XYZ in the unit of ``rgb``.
+
+    Raises
+    ------
+    ValueError
+        If ``colourspace`` is unknown (the message lists the valid names), or if the last
+        axis of ``rgb`` is not of length 3.
+    TypeError
+        If ``rgb`` is not numeric.
     """
     a = as_float_array(rgb, "rgb")
     _, MT = _matrices(colourspace)

@@ -47,7 +47,24 @@ __all__ = ["write_exr", "read_exr", "ExrImage", "is_complete_exr", "atomic_write
 
 
 def spectral_channel_name(wavelength: float) -> str:
-    """EXR channel name of spectral radiance at ``wavelength`` [nm] (Fichet et al. 2021)."""
+    """EXR channel name of spectral radiance at ``wavelength`` [nm] (Fichet et al. 2021).
+
+    Parameters
+    ----------
+    wavelength : float
+        Wavelength [nm], a scalar (anything ``float()`` accepts).
+
+    Returns
+    -------
+    str
+        ``"S0.<λ>nm"`` with λ written to 6 decimals and a decimal comma, e.g.
+        ``"S0.550,000000nm"`` for 550 nm.
+
+    Raises
+    ------
+    ValueError, TypeError
+        If ``wavelength`` cannot be converted to a float (raised by ``float()``).
+    """
     return "S0." + f"{float(wavelength):.6f}".replace(".", ",") + "nm"
 
 
@@ -68,6 +85,26 @@ def atomic_write(path):
     atomic rename on POSIX and Windows) and is removed if anything fails: an
     interrupted write never leaves a truncated file under the final name, and
     an existing file is only ever replaced by a complete one.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The final file name.  Missing parent directories are created.
+
+    Yields
+    ------
+    str
+        Path of an empty temporary file ``.<name>.<random>.tmp`` in the target's directory,
+        for the block to write to.  When the block ends without an exception it is given
+        the usual permissions (``0o666`` minus the umask) and moved onto ``path``; on any
+        exception (including ``KeyboardInterrupt``) it is removed, ``path`` is left as it
+        was and the exception propagates.
+
+    Raises
+    ------
+    OSError
+        If the directory or the temporary file cannot be created; the message names
+        ``path``, not the temporary file.
     """
     path = os.fspath(path)
     directory = os.path.dirname(os.path.abspath(path))
@@ -188,7 +225,32 @@ def write_exr(path, image, *, precision: str | None = None, compression: str = "
 
 
 class ExrImage:
-    """An EXR file read back: ``channels`` (name → array) and ``header`` (name → value)."""
+    """An EXR file read back: ``channels`` (name → array) and ``header`` (name → value).
+
+    Returned by :func:`read_exr`.  The properties give the layers written by
+    :func:`write_exr` (:attr:`rgb`, :attr:`xyz`, :attr:`alpha`, :attr:`luminance`,
+    :attr:`spectral`), the string attributes (:attr:`metadata`), the render plan
+    (:attr:`plan`) and the scene (:meth:`scene`); see the module notes for the channel
+    layout and units.
+
+    Parameters
+    ----------
+    channels : dict of str to ndarray
+        Channel name → pixels, shape (height, width) (a dome: (1, n_vertices)).
+    header : dict of str to object
+        Header attribute name → value, as the OpenEXR bindings return them.
+
+    Attributes
+    ----------
+    channels : dict of str to ndarray
+        Channel name → pixels, shape (height, width), in the file's pixel type
+        (float16 for half, float32 for float, uint32 for uint).  Grouped ``RGB``/``RGBA``
+        channels are split into ``R``, ``G``, ``B`` (, ``A``).
+    header : dict of str to object
+        Every header attribute: the standard ones (``dataWindow``, ``compression``,
+        ``chromaticities``, ...) with the OpenEXR bindings' types, and atmoscatter's
+        provenance as ``str``.
+    """
 
     def __init__(self, channels: dict, header: dict):
         self.channels = channels
@@ -216,10 +278,12 @@ class ExrImage:
 
     @property
     def alpha(self):
+        """The ``A`` channel (1 evaluated sky, 0 ground fill / outside the map), or None."""
         return self.channels.get("A")
 
     @property
     def luminance(self):
+        """The luminance-only ``Y`` channel [cd m⁻²], or None."""
         return self.channels.get("Y")
 
     @property
@@ -234,6 +298,7 @@ class ExrImage:
 
     @property
     def plan(self) -> dict | None:
+        """The render plan recorded in ``atmoscatter:plan`` (parsed JSON), or None."""
         text = self.header.get("atmoscatter:plan")
         return json.loads(text) if isinstance(text, str) else None
 
@@ -249,7 +314,28 @@ class ExrImage:
 
 
 def read_exr(path) -> ExrImage:
-    """Read an EXR file: all channels (as arrays) and the header."""
+    """Read an EXR file: all channels (as arrays) and the header.
+
+    Any OpenEXR file is read, not only those written by :func:`write_exr`; OpenEXR's own
+    diagnostics of a broken file are kept off the terminal.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The EXR file.
+
+    Returns
+    -------
+    ExrImage
+        Every channel (grouped ``RGB``/``RGBA`` split into ``R``, ``G``, ``B``, ``A``) and
+        every header attribute.
+
+    Raises
+    ------
+    ValueError
+        If ``path`` does not exist, is not a regular file, or is not a readable OpenEXR file
+        (truncated, corrupt or another format); the message names the path.
+    """
     import OpenEXR  # noqa: PLC0415
 
     path = os.fspath(path)
@@ -301,7 +387,21 @@ def _c_output_captured():
 
 
 def is_complete_exr(path) -> bool:
-    """True if ``path`` is an EXR whose header and every pixel can be read."""
+    """True if ``path`` is an EXR whose header and every pixel can be read.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The file to check.
+
+    Returns
+    -------
+    bool
+        True if ``path`` is a regular file with the OpenEXR magic number that
+        :func:`read_exr` reads completely and that has at least one channel; False
+        otherwise (missing, truncated, corrupt, not an EXR).  Never raises: every error
+        reads as False.
+    """
     try:
         import OpenEXR  # noqa: PLC0415
 

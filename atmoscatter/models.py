@@ -137,7 +137,25 @@ MODELS: dict[str, ModelAdapter] = {}
 
 
 def register_model(adapter: ModelAdapter, *, replace: bool = False) -> None:
-    """Add ``adapter`` to :data:`MODELS` (``replace=True`` to overwrite a name)."""
+    """Add ``adapter`` to :data:`MODELS` (``replace=True`` to overwrite a name).
+
+    The model is then a valid ``scene.model`` (registered under ``adapter.name``) for
+    :func:`~atmoscatter.plan` and :func:`~atmoscatter.render`.
+
+    Parameters
+    ----------
+    adapter : ModelAdapter
+        The model to register.
+    replace : bool, optional
+        Overwrite a model already registered under ``adapter.name`` (default False).
+
+    Raises
+    ------
+    TypeError
+        If ``adapter`` is not a :class:`ModelAdapter`.
+    ValueError
+        If ``adapter.name`` is already registered and ``replace`` is False.
+    """
     if not isinstance(adapter, ModelAdapter):
         raise TypeError(f"adapter must be a ModelAdapter, got {type(adapter).__name__}")
     if adapter.name in MODELS and not replace:
@@ -146,12 +164,36 @@ def register_model(adapter: ModelAdapter, *, replace: bool = False) -> None:
 
 
 def unregister_model(name: str) -> None:
-    """Remove ``name`` from :data:`MODELS` (no error if absent)."""
+    """Remove ``name`` from :data:`MODELS` (no error if absent).
+
+    Parameters
+    ----------
+    name : str
+        Registry name of the model (``ModelAdapter.name``).  Built-in models can be removed
+        too; they come back only with a new :func:`register_model`.
+    """
     MODELS.pop(name, None)
 
 
 def get_model(name: str) -> ModelAdapter:
-    """The adapter registered as ``name``; ValueError listing the valid names."""
+    """The adapter registered as ``name``; ValueError listing the valid names.
+
+    Parameters
+    ----------
+    name : str
+        Registry name, a key of :data:`MODELS` (a ``scene.model`` value such as
+        ``"preetham"`` or ``"multiple_scattering"``).
+
+    Returns
+    -------
+    ModelAdapter
+        The registered adapter (the object itself, not a copy).
+
+    Raises
+    ------
+    ValueError
+        If no model is registered as ``name``; the message lists the registered names.
+    """
     if name not in MODELS:
         raise ValueError(f"model={name!r} is not valid; choose one of {sorted(MODELS)}")
     return MODELS[name]
@@ -336,6 +378,28 @@ def rgb_sampling_matrix(sample_wavelengths, grid=FINE_GRID) -> np.ndarray:
     Piecewise-linear interpolation in ``log λ`` between the (sorted) samples,
     linear extrapolation with the end segments' slopes: a power law
     ``f ∝ λ^p`` is reproduced exactly on the whole grid.
+
+    Parameters
+    ----------
+    sample_wavelengths : array_like, shape (n_samples,)
+        Wavelengths [nm] at which ``f`` is known, in any order, at least 2.  They must be
+        positive and distinct; this is not checked (a value ≤ 0 or a repeated value gives
+        NaN entries).
+    grid : array_like, shape (n_grid,), optional
+        Wavelengths [nm] > 0 to expand to (default :data:`FINE_GRID`, 380–780 nm every
+        5 nm).
+
+    Returns
+    -------
+    ndarray, shape (n_samples, n_grid)
+        float64 weights; row ``i`` belongs to ``sample_wavelengths[i]`` (input order).  Each
+        column has at most two non-zero entries and sums to 1; outside the samples' range
+        the extrapolation gives one negative entry.
+
+    Raises
+    ------
+    ValueError
+        If fewer than 2 sample wavelengths are given.
     """
     lam = np.log(np.asarray(sample_wavelengths, dtype=float))
     order = np.argsort(lam)
@@ -665,7 +729,27 @@ def _ms_error_estimate(scene) -> str:
 
 
 def physical_adapter(function_name: str) -> ModelAdapter:
-    """Adapter of ``single_scattering`` or ``multiple_scattering`` (see module notes)."""
+    """Adapter of ``single_scattering`` or ``multiple_scattering`` (see module notes).
+
+    Parameters
+    ----------
+    function_name : {"single_scattering", "multiple_scattering"}
+        The numerical model; the function of that name is looked up in the package when
+        the adapter prepares a render.
+
+    Returns
+    -------
+    ModelAdapter
+        A new, unregistered adapter named ``function_name``: spectral, with a separate haze
+        term, valid for any observer (not ground-only), taking custom atmospheres, with the
+        wavelengths of the scene's ``sampling`` and its error estimate (a fixed statement
+        for single scattering, the measured per-regime accuracy for multiple scattering).
+
+    Raises
+    ------
+    ValueError
+        If ``function_name`` is neither of the two.
+    """
     if function_name == "single_scattering":
         desc = "numerical single scattering on a spherical planet (Nishita 1993 / seed 002)"
         err = "quadrature error <= 1e-3 relative (default method); single scattering only"

@@ -218,6 +218,33 @@ def sun_disc_radiance(scene: Scene, plan: Plan | None = None):
     ``1 − u(1 − μ)`` over the disc is ``1 − u/3``, so the disc integrates to
     ``E·T``).  Returns ``(XYZ_centre [cd m⁻²], angular_radius [rad], spectrum)``
     where ``spectrum`` is ``(wavelengths [nm], L [W m⁻² sr⁻¹ nm⁻¹])``.
+
+    Parameters
+    ----------
+    scene : Scene
+        The sun position, date (Earth–Sun distance), observer altitude and atmosphere
+        preset (turbidity, ozone).
+    plan : Plan, optional
+        The scene's plan (default: :func:`atmoscatter.plan` of ``scene``); its custom
+        atmosphere, if any, replaces the preset.
+
+    Returns
+    -------
+    XYZ_centre : ndarray, shape (3,)
+        CIE XYZ of the radiance at the disc centre [cd m⁻²]; zeros when the direct beam
+        hits the ground (the sun below the observer's horizon).
+    angular_radius : float
+        Angular radius of the solar disc [rad]: ``SUN_ANGULAR_RADIUS / d`` for the
+        Earth–Sun distance ``d`` [AU] of the scene's date (``d = 1`` without a date).
+    spectrum : tuple of ndarray
+        ``(wavelengths, L)``: :data:`~atmoscatter.models.FINE_GRID` (380–780 nm every
+        5 nm) [nm] and the spectral radiance at the disc centre [W m⁻² sr⁻¹ nm⁻¹], both of
+        shape (81,).
+
+    Raises
+    ------
+    ValueError
+        If ``plan`` is None and :func:`atmoscatter.plan` rejects ``scene``.
     """
     from .colour import K_M, cmf_weights  # noqa: PLC0415
     from .models import FINE_GRID, _band_etr  # noqa: PLC0415
@@ -387,6 +414,42 @@ def render_batches(scene: Scene, *, batch_size: int | None = None, plan: Plan | 
     (k, n_wl) or None and ``alpha``: a (k,) bool mask of the evaluated
     directions, or None when all were.  Only one batch exists at a time, so a
     map of any size can be streamed with bounded memory.
+
+    Parameters
+    ----------
+    scene : Scene
+        What to render.
+    batch_size : int, optional
+        Directions per batch, ≥ 1 (default :data:`atmoscatter.scene.DEFAULT_BATCH_SIZE`).
+        Batches hold whole rows of the projection, at least one, so a batch can be larger
+        when a row is longer than ``batch_size``.  Ignored when ``plan`` is given.
+    plan : Plan, optional
+        A plan to follow (default: :func:`atmoscatter.plan` of ``scene``, ``batch_size``
+        and ``atmosphere``).
+    atmosphere : Atmosphere, optional
+        A custom atmosphere for the physical models; ignored when ``plan`` is given.
+
+    Yields
+    ------
+    start : int
+        First flat direction index of the batch (pixels in row-major order, or vertices).
+    stop : int
+        One past its last index, ``start < stop ≤`` the number of directions.
+    batch : dict
+        ``"values"``: ndarray (k, 3) of CIE XYZ, or (k, 1) of Y for ``output =
+        "luminance"`` [cd m⁻²], ``k = stop − start``: the values before :func:`render`'s
+        RGB conversion and gamut policy, with the sun disc in the directions that fall
+        inside it (a disc smaller than the pixels that no direction hits is not put into
+        the nearest pixel, as :func:`render` does); ``"spectral"``: ndarray
+        (k, n_wl) [W m⁻² sr⁻¹ nm⁻¹] at ``plan.wavelengths`` for ``output = "spectral"``,
+        else None; ``"alpha"``: bool ndarray (k,), False for directions filled with the
+        ground value or outside the map, or None when all were evaluated.
+
+    Raises
+    ------
+    ValueError
+        If the plan cannot be made for ``scene`` (see :func:`atmoscatter.plan`) or its
+        model is not registered.
     """
     p = make_plan(scene, batch_size=batch_size, atmosphere=atmosphere) if plan is None else plan
     dset = direction_set(scene, p)
