@@ -123,6 +123,15 @@ def spectral_to_XYZ(values, wavelengths):
     return K_M * (v @ W.astype(v.dtype, copy=False))
 
 
+
+def _triplets(value, name: str) -> np.ndarray:
+    """``value`` as a float array whose last axis has length 3 (one-line error otherwise)."""
+    a = as_float_array(value, name)
+    if a.ndim < 1 or a.shape[-1] != 3:
+        raise ValueError(f"{name} must have shape (..., 3), got shape {a.shape}")
+    return a
+
+
 def xyY_to_XYZ(xyY):
     """CIE xyY → XYZ (last axis).  ``y = 0`` gives XYZ = 0 (black), not NaN.
 
@@ -142,11 +151,10 @@ def xyY_to_XYZ(xyY):
     ------
     TypeError
         If ``xyY`` is not numeric.
-    IndexError
-        If the last axis has fewer than 3 entries (a longer axis is not rejected: only its
-        first three entries are read).
+    ValueError
+        If the last axis does not have length 3.
     """
-    a = as_float_array(xyY, "xyY")
+    a = _triplets(xyY, "xyY")
     x, y, Y = a[..., 0], a[..., 1], a[..., 2]
     with np.errstate(divide="ignore", invalid="ignore"):
         s = np.where(y != 0, Y / np.where(y != 0, y, 1.0), 0.0)
@@ -175,11 +183,10 @@ def XYZ_to_xyY(XYZ, *, black_xy=(0.3127, 0.3290)):
     ------
     TypeError
         If ``XYZ`` is not numeric.
-    IndexError
-        If the last axis has fewer than 3 entries (a longer axis is not rejected: only its
-        first three entries are read).
+    ValueError
+        If the last axis does not have length 3.
     """
-    a = as_float_array(XYZ, "XYZ")
+    a = _triplets(XYZ, "XYZ")
     s = a[..., 0] + a[..., 1] + a[..., 2]
     ok = s != 0
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -317,7 +324,7 @@ def XYZ_to_linear_rgb(XYZ, colourspace: str = "sRGB"):
     TypeError
         If ``XYZ`` is not numeric.
     """
-    a = as_float_array(XYZ, "XYZ")
+    a = _triplets(XYZ, "XYZ")
     MT, _ = _matrices(colourspace)
     return a @ MT.astype(a.dtype, copy=False)
 
@@ -350,7 +357,7 @@ def linear_rgb_to_XYZ(rgb, colourspace: str = "sRGB"):
     TypeError
         If ``rgb`` is not numeric.
     """
-    a = as_float_array(rgb, "rgb")
+    a = _triplets(rgb, "rgb")
     _, MT = _matrices(colourspace)
     return a @ MT.astype(a.dtype, copy=False)
 
@@ -446,9 +453,7 @@ def rgb_into_gamut(rgb, colourspace: str = "sRGB", *, policy: str = "map"):
     0.562951 0.562951
     """
     check_option(policy, "policy", GAMUT_POLICIES)
-    a = as_float_array(rgb, "rgb")
-    if a.ndim == 0 or a.shape[-1] != 3:
-        raise ValueError(f"rgb must have 3 channels on its last axis, got shape {a.shape}")
+    a = _triplets(rgb, "rgb")
     out = np.array(a, copy=True)
     _gamut_map_inplace(out.reshape(-1, 3), policy, _luminance_coefficients(colourspace))
     return out

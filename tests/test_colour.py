@@ -206,3 +206,14 @@ def test_aliases_render_like_the_canonical_name():
     assert ac.Scene(colourspace="iturbt2020").colourspace == "iturbt2020"
     with pytest.raises(ValueError, match=r"colourspace='sRGBB' is not valid"):
         ac.Scene(colourspace="sRGBB")
+
+
+@pytest.mark.parametrize("fn, name", [(ac.xyY_to_XYZ, "xyY"), (ac.XYZ_to_xyY, "XYZ"),
+                                      (ac.XYZ_to_linear_rgb, "XYZ"),
+                                      (ac.linear_rgb_to_XYZ, "rgb")])
+@pytest.mark.parametrize("shape", [(2,), (4, 2), (5,), ()])
+def test_colour_conversions_need_three_channels(fn, name, shape):
+    """A last axis of length ≠ 3 is a one-line ValueError naming the argument and its
+    shape (before: IndexError, numpy's matmul message, or silently the first three)."""
+    with pytest.raises(ValueError, match=rf"{name} must have shape \(\.\.\., 3\)"):
+        fn(np.ones(shape))
