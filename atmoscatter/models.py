@@ -556,6 +556,27 @@ def _per_irradiance_converter(wavelengths, rgb_sampled, plan):
     return convert
 
 
+def _evaluated_directions(scene) -> int:
+    """Lower estimate of the number of directions a render of ``scene`` evaluates: its
+    pixels, halved for the ground an observer on the ground does not integrate and again
+    for the mirror symmetry about the solar vertical."""
+    n = scene.width * (scene.width * 6 if scene.projection == "cubemap" else scene.height)
+    return n // 4
+
+
+def _render_uses_table(scene, atm, sun) -> bool:
+    """Whether ``single_scattering``'s default would use its table for the whole render."""
+    from .sky import _quadrature as qd  # noqa: PLC0415
+    from .sky import single  # noqa: PLC0415
+
+    try:
+        prepared = qd.prepare_atmosphere(atm)
+    except (TypeError, ValueError, AttributeError):  # a duck-typed atmosphere: leave it be
+        return False
+    return single._table_allowed(prepared, float(scene.altitude), np.asarray(sun, float),
+                                 _evaluated_directions(scene))
+
+
 def _make_physical_prepare(function_name):
     def prepare(scene, plan):
         fn = _lookup(function_name)
@@ -577,6 +598,11 @@ def _make_physical_prepare(function_name):
                 kwargs["orders"] = scene.orders
         elif scene.method is not None:
             kwargs["method"] = scene.method
+        elif function_name == "single_scattering" and _render_uses_table(scene, atm, sun):
+            # the renderer calls the model once per batch: the default's choice of the
+            # table must follow the whole sky's direction count, not the batch's (at
+            # twilight the table pays off from 65 536 directions, more than a batch)
+            kwargs["method"] = "table"
         convert = _per_irradiance_converter(wl, rgb_sampled, plan)
 
         def evaluate(directions):

@@ -811,6 +811,22 @@ _KERNELS = {
 # ----------------------------------------------------------------------------------------
 # input handling and the dispatcher
 # ----------------------------------------------------------------------------------------
+def _table_allowed(atm: qd.PreparedAtmosphere, alt: float, s: np.ndarray, n: int) -> bool:
+    """Whether the default (``method=None``) uses the table for ``n`` directions seen from
+    altitude ``alt`` [m] with the unit sun vector ``s`` (see
+    :data:`DEFAULT_SINGLE_SCATTERING_METHOD`).  A renderer that evaluates one sky in many
+    batches asks with its total count (the table is built once and shared by the batches)."""
+    r0 = atm.planet_radius + alt
+    if n < TABLE_THRESHOLD or r0 > atm.top_radius:
+        return False
+    # a profile breakpoint below the observer puts kinks into J(μ) (view rays whose
+    # perigee crosses it); the polynomial table is then not accurate enough
+    if any(np.any(b < alt) for b in atm.breakpoints):
+        return False
+    dip = np.sqrt(max(0.0, 1.0 - (atm.planet_radius / r0) ** 2))
+    return bool(s[2] >= dip or n >= TWILIGHT_TABLE_THRESHOLD)
+
+
 def _unit_vectors(value, name: str) -> tuple[np.ndarray, np.ndarray]:
     arr = as_float_array(value, name)
     if arr.ndim < 1 or arr.shape[-1] != 3:
@@ -1018,13 +1034,8 @@ def single_scattering(
     if not np.all(fin):
         vf[~fin] = (0.0, 0.0, 1.0)  # placeholder, NaN is restored below
     r0 = atm.planet_radius + alt
-    if auto and samples is None and vf.shape[0] >= TABLE_THRESHOLD and r0 <= atm.top_radius:
-        dip = np.sqrt(max(0.0, 1.0 - (atm.planet_radius / r0) ** 2))
-        # a profile breakpoint below the observer puts kinks into J(μ) (view rays whose
-        # perigee crosses it); the polynomial table is then not accurate enough
-        kinks_below = any(np.any(b < alt) for b in atm.breakpoints)
-        if not kinks_below and (s[2] >= dip or vf.shape[0] >= TWILIGHT_TABLE_THRESHOLD):
-            method = "table"
+    if auto and samples is None and _table_allowed(atm, alt, s, vf.shape[0]):
+        method = "table"
     if method == "reference":
         tol = 1e-6 if rtol is None else float(check_range(rtol, "rtol", 1e-12, 0.1))
         out = _reference(atm, r0, vf, s, tol)
