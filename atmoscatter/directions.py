@@ -506,26 +506,18 @@ def _first_non_unit_numpy(d, tol):
     return int(np.flatnonzero(bad)[0]) if bad.any() else -1
 
 
-_FIRST_NON_UNIT = None
-
-
 def _first_non_unit(d, tol):
     """Index of the first row of ``d`` that is not a finite unit vector, or −1.
 
     One fused compiled pass (the evaluator's overhead budget is a few ms per 10⁶ directions);
     the kernel is imported on first use so that ``import atmoscatter`` does not import numba.
     """
-    global _FIRST_NON_UNIT
-    if _FIRST_NON_UNIT is None:
-        try:
-            from ._direction_kernels import _first_non_unit_numba  # noqa: PLC0415
-        except ImportError:  # pragma: no cover - numba is a declared dependency
-            _FIRST_NON_UNIT = False
-        else:
-            _FIRST_NON_UNIT = _first_non_unit_numba
-    if _FIRST_NON_UNIT is False:  # pragma: no cover
+    from ._lazy import kernels  # noqa: PLC0415
+
+    k = kernels("atmoscatter._direction_kernels")
+    if k is None:  # pragma: no cover
         return _first_non_unit_numpy(d, tol)
-    return int(_FIRST_NON_UNIT(np.ascontiguousarray(d, dtype=np.float64), tol))
+    return int(k._first_non_unit_numba(np.ascontiguousarray(d, dtype=np.float64), tol))
 
 
 class ArrayDirections(DirectionSet):

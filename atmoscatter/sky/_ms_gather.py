@@ -101,22 +101,16 @@ def gather_numpy(table, h_nodes, th_nodes, mu_nodes, h, mus, mu, cphi, wt, logt=
     return np.einsum("nmc,nmc->nc", wt, np.exp(acc).reshape(N, M, C))
 
 
-_KERNELS = None
-
-
 def _kernels():
     """The compiled kernels (:mod:`._ms_kernels`), imported on first use so that importing
     the package does not import numba; ``None`` without numba."""
-    global _KERNELS
-    if _KERNELS is None:
-        try:
-            from . import _ms_kernels as k
-        except ImportError:  # pragma: no cover - numba is a declared dependency
-            _KERNELS = False
-        else:
-            _KERNELS = {"locate_rows": k._locate_rows, "gather_log": k._gather_log,
-                        "sun_transmittance": k.sun_transmittance}
-    return _KERNELS or None
+    from .._lazy import kernels
+
+    k = kernels("atmoscatter.sky._ms_kernels")
+    if k is None:  # pragma: no cover - numba is a declared dependency
+        return None
+    return {"locate_rows": k._locate_rows, "gather_log": k._gather_log,
+            "sun_transmittance": k.sun_transmittance}
 
 
 def have_kernel() -> bool:

@@ -462,22 +462,14 @@ def _tables(T: float) -> np.ndarray:
     return tab
 
 
-_KERNELS = None
-
-
 def _kernels():
     """The compiled row kernels ``(direct_rows, table_rows)`` of
     :mod:`._preetham_kernels`, imported (and compiled or loaded from numba's cache) on first
     use so that importing the package does not import numba; ``None`` without numba."""
-    global _KERNELS
-    if _KERNELS is None:
-        try:
-            from . import _preetham_kernels as k  # noqa: PLC0415
-        except ImportError:  # pragma: no cover - numba is a declared dependency
-            _KERNELS = False
-        else:
-            _KERNELS = (k._direct_rows, k._table_rows)
-    return _KERNELS or None
+    from .._lazy import kernels  # noqa: PLC0415
+
+    k = kernels("atmoscatter.sky._preetham_kernels")
+    return None if k is None else (k._direct_rows, k._table_rows)
 
 
 def _evaluate(view_directions, sun_direction, turbidity, kind, matrix, out_of_range, backend):
