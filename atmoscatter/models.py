@@ -382,9 +382,8 @@ def rgb_sampling_matrix(sample_wavelengths, grid=FINE_GRID) -> np.ndarray:
     Parameters
     ----------
     sample_wavelengths : array_like, shape (n_samples,)
-        Wavelengths [nm] at which ``f`` is known, in any order, at least 2.  They must be
-        positive and distinct; this is not checked (a value ≤ 0 or a repeated value gives
-        NaN entries).
+        Wavelengths [nm] at which ``f`` is known, in any order, at least 2, positive,
+        finite and distinct.
     grid : array_like, shape (n_grid,), optional
         Wavelengths [nm] > 0 to expand to (default :data:`FINE_GRID`, 380–780 nm every
         5 nm).
@@ -399,14 +398,22 @@ def rgb_sampling_matrix(sample_wavelengths, grid=FINE_GRID) -> np.ndarray:
     Raises
     ------
     ValueError
-        If fewer than 2 sample wavelengths are given.
+        If fewer than 2 sample wavelengths are given, or any sample or grid wavelength is
+        not positive and finite, or two samples are equal.
     """
-    lam = np.log(np.asarray(sample_wavelengths, dtype=float))
+    wl = np.asarray(sample_wavelengths, dtype=float).ravel()
+    g = np.asarray(grid, dtype=float).ravel()
+    if wl.size < 2:
+        raise ValueError("RGB sampling needs at least 2 sample wavelengths")
+    for name, v in (("sample_wavelengths", wl), ("grid", g)):
+        if not np.all(np.isfinite(v) & (v > 0)):
+            raise ValueError(f"{name} must be positive and finite [nm], got {v.tolist()!r}")
+    if np.unique(wl).size != wl.size:
+        raise ValueError(f"sample_wavelengths must be distinct, got {wl.tolist()!r}")
+    lam = np.log(wl)
     order = np.argsort(lam)
     ls = lam[order]
-    if ls.size < 2:
-        raise ValueError("RGB sampling needs at least 2 sample wavelengths")
-    x = np.log(np.asarray(grid, dtype=float))
+    x = np.log(g)
     seg = np.clip(np.searchsorted(ls, x) - 1, 0, ls.size - 2)
     t = (x - ls[seg]) / (ls[seg + 1] - ls[seg])
     A_sorted = np.zeros((ls.size, x.size))

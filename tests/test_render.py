@@ -687,3 +687,16 @@ def test_progress_callback_reports_every_batch(workers):
     assert all(t == n for _, t in seen)
     done = [d for d, _ in seen]
     assert done == sorted(done) and done[-1] == n
+
+
+@pytest.mark.parametrize("samples, grid, match", [
+    ([550.0], None, "at least 2"),
+    ([450.0, 0.0, 650.0], None, "sample_wavelengths must be positive"),
+    ([450.0, np.nan], None, "sample_wavelengths must be positive"),
+    ([450.0, 550.0, 550.0], None, "distinct"),
+    ([450.0, 650.0], [500.0, -1.0], "grid must be positive"),
+])
+def test_rgb_sampling_matrix_rejects_bad_wavelengths(samples, grid, match):
+    """Before: NaN weights for a zero, negative or repeated wavelength."""
+    with pytest.raises(ValueError, match=match):
+        rgb_sampling_matrix(samples) if grid is None else rgb_sampling_matrix(samples, grid)
