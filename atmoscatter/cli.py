@@ -45,10 +45,18 @@ def _count(text: str) -> int:
     return value
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse with the CLI's one-line errors: ``atmoscatter render: error: … (see
+    'atmoscatter render --help')`` instead of the usage block followed by the error."""
+
+    def error(self, message):
+        self.exit(2, f"{self.prog}: error: {message} (see '{self.prog} --help')\n")
+
+
 def _parser() -> argparse.ArgumentParser:
     from . import __version__  # noqa: PLC0415
 
-    p = argparse.ArgumentParser(
+    p = _Parser(
         prog="atmoscatter",
         description="Sky colour and brightness from atmospheric light-scattering physics.",
     )

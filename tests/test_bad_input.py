@@ -193,8 +193,10 @@ def test_cli_workers_must_be_positive(command, value, tmp_path, capsys):
     with pytest.raises(SystemExit) as exc:
         main(argv + ["--workers", value])
     assert exc.value.code == 2
-    assert f"argument --workers: must be an integer in [1, inf), got '{value}'" in \
-        capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert f"argument --workers: must be an integer in [1, inf), got '{value}'" in err
+    # one line, like every other CLI error (no argparse usage block before it)
+    assert err.count("\n") == 1 and err.startswith(f"atmoscatter {command}: error:")
     assert not list(tmp_path.iterdir())
 
 
