@@ -156,7 +156,9 @@ class Scene:
         Mirror symmetry about the solar vertical: ``auto`` (use it where it
         saves work), ``on`` or ``off``.
     method : str or None
-        Quadrature method passed to the numerical models (``None`` = default).
+        Quadrature method of ``single_scattering`` (a key of
+        :data:`atmoscatter.SINGLE_SCATTERING_METHODS`; ``None`` = its default); any
+        other model with a method set is an error.
     gamut : str
         Out-of-gamut policy of the RGB output (colours with a negative channel in
         ``colourspace``; XYZ, luminance and spectral layers are never changed):
@@ -378,6 +380,16 @@ def _validate(s: Scene) -> None:
     _check(0.0 <= s.ground_albedo <= 1.0, f"ground_albedo must be in [0, 1], got {s.ground_albedo!r}")
     if s.orders is not None:
         _check(1 <= s.orders <= MAX_ORDERS, f"orders must be in [1, {MAX_ORDERS}], got {s.orders!r}")
+    if s.method is not None:
+        # accepted only where it has an effect (it used to be ignored silently elsewhere)
+        from .sky.single import SINGLE_SCATTERING_METHODS  # noqa: PLC0415 - light module
+
+        _check(s.model == "single_scattering",
+               f"method={s.method!r} only applies to model='single_scattering' (the "
+               f"quadrature of its view-path integral), not to model={s.model!r}")
+        _check(s.method in SINGLE_SCATTERING_METHODS,
+               f"method={s.method!r} is not valid; choose one of "
+               f"{sorted(SINGLE_SCATTERING_METHODS)}")
     _check(1.0 <= s.wavelength_step <= 100.0,
            f"wavelength_step must be in [1, 100] nm, got {s.wavelength_step!r}")
     for name, options in (("projection", PROJECTIONS), ("output", OUTPUTS),

@@ -243,3 +243,16 @@ class TestPlan:
 
     def test_flat_api(self):
         assert ac.Scene is Scene and ac.plan is plan and ac.load_scene is load_scene
+
+
+@pytest.mark.parametrize("fields, match", [
+    ({"method": "graded"}, "only applies to model='single_scattering'"),
+    ({"model": "multiple_scattering", "method": "graded"}, "only applies"),
+    ({"model": "single_scattering", "method": "bogus"}, "method='bogus' is not valid"),
+])
+def test_method_is_an_effect_or_an_error(fields, match):
+    """issue 12: ``method`` used to be accepted and silently ignored by every model but
+    single_scattering."""
+    with pytest.raises(ValueError, match=match):
+        Scene(**fields)
+    assert Scene(model="single_scattering", method="midpoint").method == "midpoint"
