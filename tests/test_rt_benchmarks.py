@@ -268,4 +268,10 @@ _KNOWN_DEVIATIONS = {
     # 1.7 % of the total, above the 1 % asked; not removed by finer altitude, μ, φ or
     # panel-order grids (docs/convergence.md), so not a resolution issue — open.
     ("3A", "top", 1.0),
+    # HG g = 0.75, τ = 8, ω = 1 (slow set): every point 7–12 % low on the default grid
+    # (docs/validation/ms_references.md).  Not the order sum: the automatic orders agree
+    # with 120 explicit orders to 1e-4 at the top and bottom nadir/zenith points; so the
+    # field's discretisation in an optically thick conservative layer — open (issue 10).
+    *((("3B", lvl, u) for lvl, us in (("top", (0.1, 0.5, 1.0)), ("bottom", (-1.0, -0.5, -0.1)))
+       for u in us)),
 }
