@@ -476,6 +476,13 @@ def _stop_pool(ex: ProcessPoolExecutor, timeout: float = 2.0) -> None:
             if p.is_alive():
                 p.kill()
                 p.join(1.0)
+    # let the executor's management thread see its dead workers and close its wake-up
+    # pipe now: if it is still doing so when the interpreter exits, concurrent.futures'
+    # exit hook writes to that pipe as it closes ("Bad file descriptor" traceback)
+    manager = getattr(ex, "_executor_manager_thread", None)
+    if manager is not None:
+        with contextlib.suppress(Exception):
+            manager.join(timeout)
 
 
 class _Stop(KeyboardInterrupt):

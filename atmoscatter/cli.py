@@ -24,6 +24,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import json
+import os
 import sys
 import threading
 import time
@@ -266,6 +267,8 @@ def _cmd_batch(args, out) -> int:
                             scheduler=args.scheduler, resume=not args.no_resume,
                             progress=not args.quiet)
     except BatchInterrupted as exc:
+        global _INTERRUPTED_BATCH
+        _INTERRUPTED_BATCH = True
         print(exc.summary.text(), file=out)
         return 143 if exc.signal_name == "SIGTERM" else 130
     finally:
@@ -430,8 +433,32 @@ def _silence_stdout() -> None:
         pass
 
 
+#: set when a batch was stopped by a signal (see :func:`run`)
+_INTERRUPTED_BATCH = False
+
+
+def run(argv=None) -> None:
+    """The ``atmoscatter`` console script (and ``python -m atmoscatter``): :func:`main`,
+    then exit with its status.
+
+    After a batch stopped by Ctrl-C or SIGTERM the process leaves with ``os._exit`` once
+    the summary is printed and flushed: its worker pool has been killed, and the
+    interpreter's exit hooks (``concurrent.futures`` waking its dead pool's management
+    thread through a pipe that thread is closing) would otherwise print a traceback at
+    random; every output file is already complete or removed by then.
+    """
+    code = main(argv)
+    if _INTERRUPTED_BATCH:
+        for stream in (sys.stdout, sys.stderr):
+            with contextlib.suppress(Exception):
+                stream.flush()
+        os._exit(code)
+    sys.exit(code)
+
+
 def main(argv=None) -> int:
-    """Entry point of the ``atmoscatter`` console script; returns the exit status."""
+    """The ``atmoscatter`` command in-process; returns the exit status (:func:`run` is the
+    console script)."""
     parser = _parser()
     args = parser.parse_args(argv)
     debug = bool(getattr(args, "debug", False))

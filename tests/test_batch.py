@@ -300,7 +300,7 @@ class TestProgress:
 _SLOW_BATCH = textwrap.dedent("""
     import sys, time
     import numpy as np
-    from atmoscatter.cli import main
+    from atmoscatter.cli import run
     from atmoscatter.models import ModelAdapter, register_model
 
     def prepare(scene, plan):
@@ -312,7 +312,7 @@ _SLOW_BATCH = textwrap.dedent("""
 
     register_model(ModelAdapter(name="slow", description="slow toy", prepare=prepare,
                                 error_estimate="exact"))
-    sys.exit(main(["batch", sys.argv[1], "-o", sys.argv[2], "--workers", "2"]))
+    run(["batch", sys.argv[1], "-o", sys.argv[2], "--workers", "2"])  # the console script
 """)
 
 
