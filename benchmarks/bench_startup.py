@@ -200,10 +200,10 @@ def main(argv=None) -> int:
             page = f.read()
         head, rest = page.split(BEGIN, 1)
         _, tail = rest.split(END, 1)
-        fd, tmp = tempfile.mkstemp(dir=os.path.dirname(doc), suffix=".tmp")
-        with os.fdopen(fd, "w", encoding="utf-8") as f:
+        from atmoscatter.exr import atomic_write  # noqa: PLC0415
+
+        with atomic_write(doc) as tmp, open(tmp, "w", encoding="utf-8") as f:
             f.write(head + BEGIN + "\n" + text + "\n" + END + tail)
-        os.replace(tmp, doc)
     return 0
 
 

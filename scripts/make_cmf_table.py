@@ -12,10 +12,11 @@ Run:  PYTHONPATH=. python scripts/make_cmf_table.py
 """
 
 import os
-import tempfile
 
 import colour
 import numpy as np
+
+from atmoscatter.exr import atomic_write
 
 NAME = "CIE 1931 2 Degree Standard Observer"
 OUT = os.path.join(os.path.dirname(__file__), "..", "atmoscatter", "data", "cie1931_2deg_cmf.csv")
@@ -26,20 +27,13 @@ def main() -> None:
     wl = np.asarray(cmfs.wavelengths, dtype=float)
     v = np.asarray(cmfs.values, dtype=float)
     out = os.path.abspath(OUT)
-    fd, tmp = tempfile.mkstemp(dir=os.path.dirname(out), suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as f:
-            f.write(f"# {NAME}: colour-matching functions x_bar, y_bar, z_bar [-]\n")
-            f.write(f"# source: colour-science {colour.__version__}, colour.MSDS_CMFS (CIE data; "
-                    "colour-science BSD-3-Clause); written by scripts/make_cmf_table.py\n")
-            f.write("wavelength_nm,x_bar,y_bar,z_bar\n")
-            for w, (x, y, z) in zip(wl, v, strict=True):
-                f.write(f"{w!r},{x!r},{y!r},{z!r}\n")
-        os.chmod(tmp, 0o644)
-        os.replace(tmp, out)
-    except BaseException:
-        os.remove(tmp)
-        raise
+    with atomic_write(out) as tmp, open(tmp, "w", encoding="utf-8") as f:
+        f.write(f"# {NAME}: colour-matching functions x_bar, y_bar, z_bar [-]\n")
+        f.write(f"# source: colour-science {colour.__version__}, colour.MSDS_CMFS (CIE data; "
+                "colour-science BSD-3-Clause); written by scripts/make_cmf_table.py\n")
+        f.write("wavelength_nm,x_bar,y_bar,z_bar\n")
+        for w, (x, y, z) in zip(wl, v, strict=True):
+            f.write(f"{w!r},{x!r},{y!r},{z!r}\n")
     print(f"wrote {out}: {wl.size} wavelengths {wl[0]:g}-{wl[-1]:g} nm")
 
 

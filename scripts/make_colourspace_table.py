@@ -12,10 +12,11 @@ Run:  PYTHONPATH=. python scripts/make_colourspace_table.py
 
 import json
 import os
-import tempfile
 
 import colour
 import numpy as np
+
+from atmoscatter.exr import atomic_write
 
 OUT = os.path.join(os.path.dirname(__file__), "..", "atmoscatter", "data", "colourspaces.json")
 
@@ -47,16 +48,9 @@ def build() -> dict:
 def main() -> None:
     table = build()
     out = os.path.abspath(OUT)
-    fd, tmp = tempfile.mkstemp(dir=os.path.dirname(out), suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as f:
-            json.dump(table, f, indent=1, sort_keys=False)
-            f.write("\n")
-        os.chmod(tmp, 0o644)
-        os.replace(tmp, out)
-    except BaseException:
-        os.remove(tmp)
-        raise
+    with atomic_write(out) as tmp, open(tmp, "w", encoding="utf-8") as f:
+        json.dump(table, f, indent=1, sort_keys=False)
+        f.write("\n")
     print(f"wrote {out}: {len(table['colourspaces'])} colourspaces")
 
 
