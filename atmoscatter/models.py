@@ -719,12 +719,11 @@ def _ms_regimes(scene) -> tuple[str, str]:
 def _ms_accuracy_current(acc: dict) -> bool:
     """The measurement is of the installed method (field version) and default grid."""
     import dataclasses  # noqa: PLC0415
-    import inspect  # noqa: PLC0415
 
     from .sky import multiple  # noqa: PLC0415
 
-    tol = inspect.signature(multiple.multiple_scattering).parameters["order_tolerance"].default
-    grid = {**dataclasses.asdict(multiple.MULTIPLE_SCATTERING_GRID), "order_tolerance": tol}
+    grid = {**dataclasses.asdict(multiple.MULTIPLE_SCATTERING_GRID),
+            "order_tolerance": multiple.DEFAULT_ORDER_TOLERANCE}
     return (acc.get("field_version") == multiple._FIELD_VERSION
             and acc.get("default_grid_fields") == grid)
 

@@ -1020,12 +1020,10 @@ def _numerics_text(scene: Scene) -> str:
     """What :attr:`Plan.numerics` says for ``scene`` (physical models only)."""
     if scene.model == "multiple_scattering":
         import dataclasses  # noqa: PLC0415
-        import inspect  # noqa: PLC0415
 
         from .sky import multiple  # noqa: PLC0415 - light: kernels load on first use
 
-        sig = inspect.signature(multiple.multiple_scattering).parameters
-        tol = sig["order_tolerance"].default
+        tol = multiple.DEFAULT_ORDER_TOLERANCE
         if scene.orders is None:
             orders = (f"all scattering orders (summed until the estimated remaining orders are "
                       f"below {multiple._ACCELERATION * tol:g} of the multiple-scattering "

@@ -76,7 +76,7 @@ SCENES = {
     "mars": ("mars", 30.0, 0.0, _GROUND_ZENITH),
 }
 
-DEFAULT = (ms.MULTIPLE_SCATTERING_GRID, 1e-3)
+DEFAULT = (ms.MULTIPLE_SCATTERING_GRID, ms.DEFAULT_ORDER_TOLERANCE)
 REFERENCE = (MultipleScatteringGrid(n_altitude=28, n_sun=64, n_mu=32, n_phi=25, order=4), 1e-5)
 KNOBS = {
     "n_sun": (20, 32, 48),

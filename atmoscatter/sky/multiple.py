@@ -174,6 +174,10 @@ class MultipleScatteringGrid:
 MULTIPLE_SCATTERING_GRID = MultipleScatteringGrid()
 """Default grid (chosen from the error-against-run-time study in ``docs/convergence.md``)."""
 
+DEFAULT_ORDER_TOLERANCE: float = 1e-3
+"""Default ``order_tolerance`` of :func:`multiple_scattering` (relative error of the summed
+orders; the convergence study measures the default grid with it)."""
+
 #: (view-zenith, azimuth) nodes of the table used for the multiple-scattering part of large
 #: batches (≥ TABLE_THRESHOLD directions, observer inside the atmosphere)
 _MS_TABLE_NODES = (257, 33)
@@ -834,7 +838,7 @@ def multiple_scattering(
     altitude=0.0,
     orders: int | None = None,
     ground_albedo: float = 0.0,
-    order_tolerance: float = 1e-3,
+    order_tolerance: float = DEFAULT_ORDER_TOLERANCE,
     grid: MultipleScatteringGrid | None = None,
     batch_size: int = 2048,
 ):
