@@ -201,7 +201,7 @@ class TestRunInputs:
         blocker = tmp_path / "file"
         blocker.write_text("not a directory")
         calls = []
-        monkeypatch.setattr("atmoscatter.batch._render_one", lambda *a: calls.append(a))
+        monkeypatch.setattr("atmoscatter.batch.run._render_one", lambda *a: calls.append(a))
         with pytest.raises(ValueError, match="cannot write output directory") as exc:
             run_batch(load_batch(p), blocker / "out", progress=None)
         assert str(blocker / "out") in str(exc.value) and ".tmp" not in str(exc.value)
@@ -425,7 +425,7 @@ def test_workers_stop_when_the_parent_is_killed(tmp_path):
 
 def test_interrupt_in_process_returns_a_summary(tmp_path, monkeypatch):
     """KeyboardInterrupt while rendering in this process: BatchInterrupted with the summary."""
-    import atmoscatter.batch as batch
+    from atmoscatter.batch import run as batch
 
     p = tmp_path / "s.csv"
     p.write_text(CSV)
