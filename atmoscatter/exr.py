@@ -30,7 +30,7 @@ Channel layout
 
 Lat-long and cube maps carry the standard ``envmap`` attribute; their pixel
 orientation is OpenEXR's with the environment frame x = west, y = up,
-z = north (see :mod:`atmoscatter.directions`).
+z = north (see :mod:`atmoscatter.render.directions`).
 """
 
 from __future__ import annotations
