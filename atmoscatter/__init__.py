@@ -34,8 +34,6 @@ from .sky.single import *  # noqa: F403
 from .sky.multiple import *  # noqa: F403
 # scenes, rendering, files, CLI
 from .scene import *  # noqa: F403
-from .directions import *  # noqa: F403
-from .models import *  # noqa: F403
 from .render import *  # noqa: F403
 from .exr import *  # noqa: F403
 from .preview import *  # noqa: F403
@@ -47,6 +45,8 @@ from .compare import *  # noqa: F403
 #: The public names: exactly the union of the re-exported modules' ``__all__``.
 _REEXPORTED = ("atmosphere", "colour", "geometry", "optical_length", "phase", "presets",
                "scattering", "solar", "standard_atmosphere", "sun", "sky.aerial", "sky.cie",
-               "sky.perez", "sky.preetham", "sky.single", "sky.multiple", "scene", "directions",
-               "models", "render", "exr", "preview", "batch", "integrals", "compare")
+               "sky.perez", "sky.preetham", "sky.single", "sky.multiple", "scene", "render.plan",
+               "render.directions", "render.models", "render.analytic_adapters",
+               "render.photometry", "render.physical_adapters", "render.evaluate", "exr",
+               "preview", "batch", "integrals", "compare")
 __all__ = sorted({n for m in _REEXPORTED for n in _sys.modules[f"{__name__}.{m}"].__all__})

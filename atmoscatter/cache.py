@@ -381,7 +381,7 @@ def _check_arrays(arrays) -> dict[str, np.ndarray]:
 
 
 def _write_entry(path: str, members: dict[str, np.ndarray]) -> None:
-    from .exr import atomic_write  # noqa: PLC0415  (one atomic-write helper in the package)
+    from ._atomic import atomic_write  # noqa: PLC0415  (one atomic-write helper in the package)
 
     with atomic_write(path) as tmp:
         with open(tmp, "wb") as fh:

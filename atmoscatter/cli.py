@@ -140,7 +140,7 @@ def _cmd_render(args, out) -> int:
     from .exr import write_exr  # noqa: PLC0415
     from .preview import write_preview  # noqa: PLC0415
     from .render import render  # noqa: PLC0415
-    from .scene import plan  # noqa: PLC0415
+    from .render.plan import plan  # noqa: PLC0415
 
     scene = _scene_from_args(args)
     if args.explain:
@@ -316,7 +316,7 @@ def _cmd_info(args, out) -> int:
     if img.plan is not None:
         print("plan:", file=out)
         try:
-            from .scene import Plan  # noqa: PLC0415
+            from .render.plan import Plan  # noqa: PLC0415
 
             d = dict(img.plan)
             d.update(layers=tuple(d["layers"]), wavelengths=tuple(d["wavelengths"]),
@@ -342,7 +342,7 @@ def _cmd_preview(args, out) -> int:
 
 
 def _cmd_models(args, out) -> int:
-    from .models import MODELS  # noqa: PLC0415
+    from .render.models import MODELS  # noqa: PLC0415
 
     for name, a in sorted(MODELS.items()):
         print(f"{name:<20} {a.description}", file=out)

@@ -677,7 +677,7 @@ def read_sky_map(path, *, layout: str = "auto", rotate_deg: float = 0.0, flip: s
     elif lay in ("cubemap", "fisheye") and (flip != "none" or rotate_deg % 360.0 != 0.0):
         # the file's pixel p looks, in its own convention, where our layout's pixel p looks;
         # turn those directions into ours and render the reference exactly there
-        from .directions import CubeMapDirections, FisheyeDirections
+        from .render.directions import CubeMapDirections, FisheyeDirections
 
         dset = CubeMapDirections(w) if lay == "cubemap" else FisheyeDirections(w, h)
         d, ok = dset.directions(0, dset.size)

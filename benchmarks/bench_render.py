@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 import atmoscatter as ac
-from atmoscatter.models import ModelAdapter, register_model, unregister_model
+from atmoscatter.render.models import ModelAdapter, register_model, unregister_model
 
 SUN = np.array([0.0, np.cos(np.radians(35.0)), np.sin(np.radians(35.0))])
 FULL = os.environ.get("ATMOSCATTER_BENCH_FULL") == "1"

@@ -24,7 +24,7 @@ import numpy as np
 import pytest
 
 import atmoscatter as ac
-from atmoscatter.directions import direction_set
+from atmoscatter.render.directions import direction_set
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(ac.__file__)))
 

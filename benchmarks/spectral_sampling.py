@@ -22,14 +22,14 @@ wavelength set share one precomputation.  The spectral steps coarser than the re
 whose wavelengths are a subset of the reference's (20, 40, 50, 100 nm on a 10 nm
 reference) are evaluated from the reference run's per-irradiance radiance at those
 wavelengths, integrated by the renderer's own converter for that wavelength set
-(:func:`atmoscatter.models._per_irradiance_converter`, band-averaged ETR of *that* set):
+(:func:`atmoscatter.render.photometry._per_irradiance_converter`, band-averaged ETR of *that* set):
 the field is computed independently per wavelength, so this is the render at that step up
 to the automatic order count (shared by all wavelengths; ``order_tolerance`` 1e-3).  One
 step (:data:`CHECK_STEP`) is also rendered directly (cold and warm) to time it and to check
 that equivalence (``subset_check`` in the output).
 
 From the table the script derives the rule of ``sampling="auto"``
-(:func:`atmoscatter.scene.plan`) and writes it to ``atmoscatter/data/spectral_sampling.json``:
+(:func:`atmoscatter.render.plan.plan`) and writes it to ``atmoscatter/data/spectral_sampling.json``:
 
 * ``LIMIT`` ΔE2000 (95th percentile over the map, worst atmosphere) is the target;
 * the sun-elevation threshold is the lowest measured elevation at and above which rgb
@@ -65,9 +65,9 @@ import numpy as np
 os.environ["ATMOSCATTER_CACHE_DIR"] = "off"  # cold timings: no persistent cache
 
 import atmoscatter as ac  # noqa: E402
-from atmoscatter import models as M  # noqa: E402
+from atmoscatter.render import photometry, physical_adapters  # noqa: E402
+from atmoscatter.render.plan import plan as make_plan  # noqa: E402
 from atmoscatter.scene import Scene  # noqa: E402
-from atmoscatter.scene import plan as make_plan  # noqa: E402
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
@@ -121,7 +121,7 @@ def _render(scene, d):
 def _raw(scene, d):
     """Per-irradiance radiance f (n, n_wl) exactly as the renderer evaluates it."""
     p = make_plan(scene)
-    atm = M._build_atmosphere(scene, p.wavelengths)
+    atm = physical_adapters._build_atmosphere(scene, p.wavelengths)
     fn = getattr(ac, scene.model)
     kw = {"altitude": scene.altitude}
     if scene.model == "multiple_scattering":
@@ -133,7 +133,7 @@ def _xyz_from_subset(f_ref, p_ref, scene_sub):
     p = make_plan(scene_sub)
     idx = np.searchsorted(np.asarray(p_ref.wavelengths), np.asarray(p.wavelengths))
     assert np.allclose(np.asarray(p_ref.wavelengths)[idx], p.wavelengths)
-    convert = M._per_irradiance_converter(np.asarray(p.wavelengths), False, p)
+    convert = photometry._per_irradiance_converter(np.asarray(p.wavelengths), False, p)
     return convert(f_ref[:, idx])["XYZ"], len(p.wavelengths)
 
 

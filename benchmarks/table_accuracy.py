@@ -22,7 +22,7 @@ import time
 import numpy as np
 
 import atmoscatter as ac
-from atmoscatter.directions import LatLongDirections
+from atmoscatter.render.directions import LatLongDirections
 from atmoscatter.sky import _quadrature as qd
 from atmoscatter.sky import single as S
 

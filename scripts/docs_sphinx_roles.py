@@ -201,6 +201,15 @@ def convert(text: str, scope=None, resolver: _Resolver | None = None) -> str:
         if content.startswith("!") or resolver is None or scope is None:
             return f"`{title}`"
         obj = resolver.resolve(target, scope)
+        if obj is not None and obj.is_module and kind != "mod" and obj.name in obj.members:
+            # a package re-exporting a function named like its module (``atmoscatter.plan`` is
+            # ``atmoscatter.render.plan.plan``): Griffe keeps the submodule under that name
+            obj = obj.members[obj.name]
+            if obj.is_alias:
+                try:
+                    obj = obj.final_target
+                except Exception:  # noqa: BLE001 — unresolvable alias
+                    obj = None
         if obj is None or not resolver.rendered(obj):
             return f"`{title}`"
         return f"[`{title}`][{obj.path}]"

@@ -28,7 +28,7 @@ MODEL_PREFERENCE = ("multiple_scattering", "single_scattering", "preetham")
 
 def available_models() -> list[str]:
     try:
-        from atmoscatter.models import MODELS
+        from atmoscatter.render.models import MODELS
     except ImportError:  # the renderer has not landed in this checkout
         return []
     return sorted(MODELS)

@@ -65,7 +65,7 @@ FAIL_P95 = 0.25  # "fails": more than 5 % of the sky off by more than 25 %
 
 def _models():
     try:
-        from atmoscatter.models import MODELS
+        from atmoscatter.render.models import MODELS
     except ImportError:  # the renderer has not landed in this checkout
         return []
     return sorted(MODELS)

@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 from hypothesis import settings
 
-from atmoscatter.models import ModelAdapter, register_model, unregister_model
+from atmoscatter.render import ModelAdapter, register_model, unregister_model
 
 # Hermetic cache: the whole session (and every subprocess, notebook kernel or Dask worker it
 # starts, which inherit the environment) uses a fresh, empty cache directory instead of the

@@ -13,7 +13,8 @@ import pytest
 import atmoscatter as ac
 from atmoscatter.cli import main
 from atmoscatter.exr import atomic_write, read_exr
-from atmoscatter.scene import Scene, load_scene, plan
+from atmoscatter.render import plan
+from atmoscatter.scene import Scene, load_scene
 
 pytestmark = pytest.mark.usefixtures("toy_model")
 

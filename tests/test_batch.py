@@ -301,7 +301,7 @@ _SLOW_BATCH = textwrap.dedent("""
     import sys, time
     import numpy as np
     from atmoscatter.cli import run
-    from atmoscatter.models import ModelAdapter, register_model
+    from atmoscatter.render import ModelAdapter, register_model
 
     def prepare(scene, plan):
         def evaluate(d):

@@ -5,7 +5,8 @@ import math
 import numpy as np
 import pytest
 
-from atmoscatter.directions import (
+from atmoscatter.optical_length import relative_optical_length
+from atmoscatter.render.directions import (
     ArrayDirections,
     CubeMapDirections,
     DomeDirections,
@@ -15,7 +16,6 @@ from atmoscatter.directions import (
     local_to_exr,
     mirror_pairs,
 )
-from atmoscatter.optical_length import relative_optical_length
 
 
 def _unit(d):
@@ -255,7 +255,7 @@ class TestArrayDirections:
 
 def test_unit_vector_check_compiled_and_numpy_agree():
     # the compiled per-batch check must flag exactly what the NumPy expression flags
-    from atmoscatter.directions import _first_non_unit, _first_non_unit_numpy
+    from atmoscatter.render.directions import _first_non_unit, _first_non_unit_numpy
 
     rng = np.random.default_rng(5)
     d = rng.normal(size=(1000, 3))

@@ -17,8 +17,8 @@ from atmoscatter.exr import (
     spectral_channel_name,
     write_exr,
 )
-from atmoscatter.models import physical_adapter, register_model, unregister_model
 from atmoscatter.preview import preview_array, srgb_encode, tone_map, write_png, write_preview
+from atmoscatter.render import physical_adapter, register_model, unregister_model
 from atmoscatter.scene import Scene
 
 pytestmark = pytest.mark.usefixtures("toy_model")

@@ -293,7 +293,7 @@ def test_exr_carries_the_policy(tmp_path):
 def test_batch_with_a_nan_pixel_is_still_mapped():
     """A NaN pixel must not hide the out-of-gamut pixels of its batch (``min()`` of a batch
     with a NaN is NaN); the NaN itself is left alone."""
-    from atmoscatter.models import ModelAdapter, register_model, unregister_model
+    from atmoscatter.render import ModelAdapter, register_model, unregister_model
 
     def prepare(scene, plan):
         def evaluate(d):

@@ -17,9 +17,10 @@ import numpy as np
 import pytest
 
 import atmoscatter as ac
-from atmoscatter.models import _pct, ms_accuracy, physical_adapter, register_model, unregister_model
-from atmoscatter.render import _error_estimate
-from atmoscatter.scene import Scene, plan
+from atmoscatter.render import physical_adapter, plan, register_model, unregister_model
+from atmoscatter.render.evaluate import _error_estimate
+from atmoscatter.render.physical_adapters import _pct, ms_accuracy
+from atmoscatter.scene import Scene
 
 SUN_REGIMES = ("above_10", "0_to_10", "0_to_-6", "-6_to_-12", "below_-12")
 OBSERVER_REGIMES = ("ground", "elevated", "space")
@@ -51,7 +52,7 @@ def test_file_exists_parses_and_covers_every_regime():
 def test_measurement_is_of_the_installed_method():
     """Fails when the method or its default grid changed since the study was run (the
     header would then flag its figures): rerun ``benchmarks/ms_convergence.py``."""
-    from atmoscatter.models import _ms_accuracy_current
+    from atmoscatter.render.physical_adapters import _ms_accuracy_current
 
     assert _ms_accuracy_current(_load())
     assert "CAUTION" not in _header_text(_ms_scene())

@@ -12,18 +12,19 @@ from scipy import integrate
 
 import atmoscatter as ac
 from atmoscatter.colour import K_M
-from atmoscatter.models import (
-    FINE_GRID,
+from atmoscatter.render import (
     ModelAdapter,
     physical_adapter,
+    plan,
     register_model,
     rgb_sampling_matrix,
     unregister_model,
 )
-from atmoscatter.scene import Scene, plan
+from atmoscatter.render.photometry import FINE_GRID
+from atmoscatter.scene import Scene
 from atmoscatter.solar import solar_spectrum_table
 
-render_mod = importlib.import_module("atmoscatter.render")
+render_mod = importlib.import_module("atmoscatter.render.evaluate")
 CALLS = []
 
 
@@ -645,7 +646,7 @@ def test_preetham_spectral_output_integrates_back_to_its_luminance(tmp_path):
 # ---------------------------------------------------------------------------
 @pytest.mark.parametrize("h,bs", [(32, 64), (33, 64), (32, 100), (7, 10**6)])
 def test_latlong_up_range_is_that_of_its_directions(h, bs):
-    from atmoscatter.directions import LatLongDirections
+    from atmoscatter.render import LatLongDirections
 
     dset = LatLongDirections(64, h)
     for start, stop in dset.batches(bs) + [(5, 70), (64, 65)]:

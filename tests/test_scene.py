@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 import atmoscatter as ac
-from atmoscatter.models import ModelAdapter, register_model, unregister_model
-from atmoscatter.scene import Plan, Scene, load_scene, parse_time, plan
+from atmoscatter.render import ModelAdapter, Plan, plan, register_model, unregister_model
+from atmoscatter.scene import Scene, load_scene, parse_time
 from atmoscatter.sun import earth_sun_distance
 
 
@@ -221,7 +221,7 @@ class TestPlan:
     def test_explain_states_the_numerics_of_the_physical_models(self):
         """--explain says how many scattering orders multiple scattering sums (automatic
         or fixed) and on which grid, and the model's accuracy statement for the scene."""
-        from atmoscatter.models import get_model
+        from atmoscatter.render import get_model
         from atmoscatter.sky.multiple import MULTIPLE_SCATTERING_GRID
 
         sc = Scene(model="multiple_scattering", sun_elevation_deg=5.0, width=8, height=4)

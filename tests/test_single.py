@@ -523,7 +523,7 @@ _SWEEP_ELEV = (90.0, 30.0, 5.0, 2.0, 1.0, 0.0, -3.0, -6.0, -12.0, -18.0)
 
 
 def _latlong(width=64, height=64):
-    from atmoscatter.directions import LatLongDirections
+    from atmoscatter.render import LatLongDirections
 
     d = LatLongDirections(width, height)
     return d.directions(0, d.size)[0]

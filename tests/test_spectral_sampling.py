@@ -17,7 +17,8 @@ import pytest
 
 import atmoscatter as ac
 from atmoscatter.cli import main
-from atmoscatter.scene import Scene, auto_sampling_rule, plan
+from atmoscatter.render import auto_sampling_rule, plan
+from atmoscatter.scene import Scene
 
 RULE = auto_sampling_rule()
 THRESHOLD = RULE["elevation_threshold_deg"]

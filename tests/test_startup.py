@@ -98,7 +98,7 @@ def test_star_import_gives_the_public_api():
 
 
 @pytest.mark.parametrize("mod", ["atmoscatter.sky._preetham_kernels",
-                                 "atmoscatter._direction_kernels"])
+                                 "atmoscatter.render._direction_kernels"])
 def test_kernel_modules_are_private_and_cached(mod):
     """The compiled kernels live in private modules and keep numba's on-disk cache."""
     pytest.importorskip("numba")

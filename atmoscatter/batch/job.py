@@ -52,8 +52,9 @@ def scene_fingerprint(scene) -> str:
         Hexadecimal SHA-256 digest.
     """
     from .. import __version__  # noqa: PLC0415
-    from ..models import MODELS  # noqa: PLC0415
-    from ..scene import auto_sampling_rule, is_atmosphere_file  # noqa: PLC0415
+    from ..render.models import MODELS  # noqa: PLC0415
+    from ..render.plan import auto_sampling_rule  # noqa: PLC0415
+    from ..scene import is_atmosphere_file  # noqa: PLC0415
 
     adapter = MODELS.get(scene.model)
     payload = {"scene": scene.to_strings(), "version": __version__,

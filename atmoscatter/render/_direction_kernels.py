@@ -1,4 +1,4 @@
-"""Compiled kernel of :mod:`atmoscatter.directions` (private; imported on first use, so that
+"""Compiled kernel of :mod:`atmoscatter.render.directions` (private; imported on first use, so that
 ``import atmoscatter`` does not import numba)."""
 
 import numba

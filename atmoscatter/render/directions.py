@@ -475,7 +475,7 @@ class DomeDirections(DirectionSet):
     @property
     def radii(self):
         """Vertex distance [m]: air optical length in the vertex direction (seed 000)."""
-        from .optical_length import relative_optical_length  # noqa: PLC0415
+        from ..optical_length import relative_optical_length  # noqa: PLC0415
 
         zen = np.arccos(np.clip(self.vertices[:, 2], 0.0, 1.0))
         return AIR_OPTICAL_LENGTH_ZENITH * relative_optical_length(zen, method="iqbal")
@@ -512,9 +512,9 @@ def _first_non_unit(d, tol):
     One fused compiled pass (the evaluator's overhead budget is a few ms per 10⁶ directions);
     the kernel is imported on first use so that ``import atmoscatter`` does not import numba.
     """
-    from ._lazy import kernels  # noqa: PLC0415
+    from .._lazy import kernels  # noqa: PLC0415
 
-    k = kernels("atmoscatter._direction_kernels")
+    k = kernels("atmoscatter.render._direction_kernels")
     if k is None:  # pragma: no cover
         return _first_non_unit_numpy(d, tol)
     return int(k._first_non_unit_numba(np.ascontiguousarray(d, dtype=np.float64), tol))
