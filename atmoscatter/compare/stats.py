@@ -74,7 +74,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ._validate import as_float_array, check_option, check_positive
+from .._validate import as_float_array, check_option, check_positive
 
 __all__ = [
     "SCALE_METHODS",
@@ -179,7 +179,7 @@ def _to_xyz(image, space: str, name: str):
                          f"got shape {a.shape}; use space='luminance' for a Y-only image")
     if space == "XYZ":
         return a, a[..., 1]
-    from .colour import linear_rgb_to_XYZ
+    from ..colour import linear_rgb_to_XYZ
 
     xyz = np.asarray(linear_rgb_to_XYZ(a, colourspace=space), dtype=np.float64)
     return xyz, xyz[..., 1]
@@ -244,7 +244,7 @@ class Comparison:
 
     def to_dict(self) -> dict:
         """JSON-ready summary (the content of ``summary.json``)."""
-        from . import __version__
+        from .. import __version__
 
         return {
             "luminance_relative_error": self.luminance_relative_error,
@@ -314,7 +314,7 @@ class Comparison:
             _write_png(paths["delta_e_map"], _sequential(self.delta_e_map, DELTA_E_MAP_RANGE))
         data = self.to_dict()
         data["files"] = {k: os.path.basename(v) for k, v in paths.items()}
-        from .exr import atomic_write
+        from ..exr import atomic_write
 
         with atomic_write(paths["summary"]) as tmp, open(tmp, "w", encoding="utf-8") as fh:
             json.dump(_jsonable(data), fh, indent=2, sort_keys=False, allow_nan=False)
@@ -481,7 +481,7 @@ def _sequential(values, vmax):
 
 
 def _write_png(path, pixels):
-    from .preview import write_png
+    from ..preview import write_png
 
     return write_png(path, pixels)
 
@@ -529,7 +529,7 @@ class SkyMap:
 
 
 def _read_exr_channels(path):
-    from .exr import read_exr
+    from ..exr import read_exr
 
     img = read_exr(path)
     if not img.channels:
@@ -629,14 +629,14 @@ def read_sky_map(path, *, layout: str = "auto", rotate_deg: float = 0.0, flip: s
         source = "XYZ channels"
     elif all(c in chans for c in "RGB"):
         rgb = np.stack([chans[c] for c in "RGB"], -1).astype(np.float64)
-        from .colour import colourspace_names
+        from ..colour import colourspace_names
 
         check_option(colourspace, "colourspace", colourspace_names())
         xyz, _ = _to_xyz(rgb, colourspace, "RGB")
         source = f"RGB as linear {colourspace}"
     elif _spectral_channels(chans):
         wl, names = _spectral_channels(chans)
-        from .colour import spectral_to_XYZ
+        from ..colour import spectral_to_XYZ
 
         spec = np.stack([chans[n] for n in names], -1).astype(np.float64)
         xyz = np.asarray(spectral_to_XYZ(spec, wl), dtype=np.float64)
@@ -677,7 +677,7 @@ def read_sky_map(path, *, layout: str = "auto", rotate_deg: float = 0.0, flip: s
     elif lay in ("cubemap", "fisheye") and (flip != "none" or rotate_deg % 360.0 != 0.0):
         # the file's pixel p looks, in its own convention, where our layout's pixel p looks;
         # turn those directions into ours and render the reference exactly there
-        from .directions import CubeMapDirections, FisheyeDirections
+        from ..directions import CubeMapDirections, FisheyeDirections
 
         dset = CubeMapDirections(w) if lay == "cubemap" else FisheyeDirections(w, h)
         d, ok = dset.directions(0, dset.size)
@@ -727,7 +727,7 @@ def _scene_for(scene, sky_map: SkyMap):
     """Load/replace the scene so that it renders at the sky map's directions."""
     import dataclasses
 
-    from .scene import Scene, load_scene
+    from ..scene import Scene, load_scene
 
     if isinstance(scene, str | os.PathLike):
         scene = load_scene(scene)
@@ -789,7 +789,7 @@ def compare_exr(
     sky = read_sky_map(other, layout=layout, rotate_deg=rotate_deg, flip=flip,
                        colourspace=colourspace)
     if reference is None:
-        from .render import render
+        from ..render import render
 
         sc = _scene_for(scene, sky)
         reference = render(sc) if sky.directions is None else \
@@ -901,7 +901,7 @@ def add_compare_parser(subparsers):
 
 
 def _scene_for_cli(args):
-    from .scene import Scene, load_scene
+    from ..scene import Scene, load_scene
 
     if args.scene:
         scene = load_scene(args.scene)
