@@ -251,7 +251,7 @@ def _encode_float(x: float):
 
 
 def _encode(obj, where: str):
-    from .atmosphere import Atmosphere, atmosphere_to_dict  # noqa: PLC0415
+    from ..atmosphere import Atmosphere, atmosphere_to_dict  # noqa: PLC0415
 
     if obj is None or isinstance(obj, bool | np.bool_):
         return None if obj is None else bool(obj)
@@ -381,7 +381,7 @@ def _check_arrays(arrays) -> dict[str, np.ndarray]:
 
 
 def _write_entry(path: str, members: dict[str, np.ndarray]) -> None:
-    from .exr import atomic_write  # noqa: PLC0415  (one atomic-write helper in the package)
+    from ..exr import atomic_write  # noqa: PLC0415  (one atomic-write helper in the package)
 
     with atomic_write(path) as tmp:
         with open(tmp, "wb") as fh:
