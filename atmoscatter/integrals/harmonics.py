@@ -69,7 +69,7 @@ from math import factorial, lgamma
 
 import numpy as np
 
-from ._validate import as_float_array, check_option, check_positive, clamp_cosine
+from .._validate import as_float_array, check_option, check_positive, clamp_cosine
 
 __all__ = [
     "sphere_quadrature",
@@ -459,9 +459,9 @@ def direct_normal_irradiance(atmosphere, sun_direction, *, altitude: float = 0.0
         geometric horizon).  Accuracy: that of ``optical_length`` (~1e-10 relative in ℓ).
         The sun is treated as a point (no disc-averaging of the transmittance).
     """
-    from .geometry import ray_hits_ground
-    from .optical_length import optical_length
-    from .solar import extraterrestrial_irradiance
+    from ..geometry import ray_hits_ground
+    from ..optical_length import optical_length
+    from ..solar import extraterrestrial_irradiance
 
     s = _unit_vector(sun_direction, "sun_direction")
     alt = float(check_positive(altitude, "altitude", allow_zero=True, unit="m"))
