@@ -19,6 +19,7 @@ from .geometry import *  # noqa: F403
 from .optical_length import *  # noqa: F403
 from .phase import *  # noqa: F403
 from .presets import *  # noqa: F403
+from .profiles import *  # noqa: F403
 from .scattering import *  # noqa: F403
 from .solar import *  # noqa: F403
 from .standard_atmosphere import *  # noqa: F403
@@ -44,9 +45,9 @@ from .compare import *  # noqa: F403
 
 #: The public names: exactly the union of the re-exported modules' ``__all__``.
 _REEXPORTED = ("atmosphere", "colour", "geometry", "optical_length", "phase", "presets",
-               "scattering", "solar", "standard_atmosphere", "sun", "sky.aerial", "sky.cie",
-               "sky.perez", "sky.preetham", "sky.single", "sky.multiple", "scene", "render.plan",
-               "render.directions", "render.models", "render.analytic_adapters",
+               "profiles", "scattering", "solar", "standard_atmosphere", "sun", "sky.aerial",
+               "sky.cie", "sky.perez", "sky.preetham", "sky.single", "sky.multiple", "scene",
+               "render.plan", "render.directions", "render.models", "render.analytic_adapters",
                "render.photometry", "render.physical_adapters", "render.evaluate", "exr",
                "preview", "batch", "integrals", "compare")
 __all__ = sorted({n for m in _REEXPORTED for n in _sys.modules[f"{__name__}.{m}"].__all__})

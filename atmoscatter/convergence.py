@@ -27,9 +27,10 @@ from pathlib import Path
 import numpy as np
 
 from ._validate import check_option
-from .atmosphere import Atmosphere, Constituent, ExponentialProfile
+from .atmosphere import Atmosphere, Constituent
 from .phase import HenyeyGreensteinPhase
 from .presets import earth_atmosphere, earth_turbidity_atmosphere, mars_atmosphere
+from .profiles import ExponentialProfile
 from .sky.single import single_scattering
 
 __all__ = [

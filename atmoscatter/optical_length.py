@@ -27,8 +27,8 @@ from __future__ import annotations
 import numpy as np
 
 from ._validate import as_float_array, check_option, check_positive, clamp_cosine, safe_sqrt
-from .atmosphere import ExponentialProfile, TabulatedProfile, TentProfile
 from .geometry import distance_to_entry, distance_to_top
+from .profiles import ExponentialProfile, TabulatedProfile, TentProfile
 
 __all__ = [
     "relative_optical_length",

@@ -63,8 +63,9 @@ from collections.abc import Callable, Sequence
 import numpy as np
 
 from ._validate import as_float_array, check_option, check_positive, check_range
-from .atmosphere import Atmosphere, Constituent, ExponentialProfile, TentProfile
+from .atmosphere import Atmosphere, Constituent
 from .phase import HenyeyGreensteinPhase, RayleighPhase
+from .profiles import ExponentialProfile, TentProfile
 from .scattering import (
     STANDARD_AIR_SCALE_HEIGHT,
     TURBIDITY_REFERENCE_WAVELENGTH,

@@ -17,7 +17,7 @@ from __future__ import annotations
 import numpy as np
 
 from ._validate import check_positive, check_range
-from .atmosphere import TabulatedProfile
+from .profiles import TabulatedProfile
 
 __all__ = ["us_standard_atmosphere_1976", "us_standard_1976_profile"]
 

@@ -46,7 +46,7 @@ sys.path.insert(0, os.path.join(os.path.dirname(__file__), os.pardir))
 import numpy as np  # noqa: E402
 
 import atmoscatter as ac  # noqa: E402
-from atmoscatter.compare import _diverging, _sequential, _write_png  # noqa: E402
+from atmoscatter.compare.report import _diverging, _sequential, _write_png  # noqa: E402
 
 SITE = {"latitude": 39.742, "longitude": -105.179}  # NREL, Golden, Colorado
 SITE_NAME = "NREL, Golden, Colorado (39.742° N, 105.179° W)"

@@ -520,6 +520,11 @@ def test_cli_errors_are_one_line(cache_root, capsys, monkeypatch):
 
 def test_docstring_examples():
     import doctest
+    import importlib
+    import pkgutil
 
-    result = doctest.testmod(cache, optionflags=doctest.ELLIPSIS, verbose=False)
-    assert result.attempted >= 3 and result.failed == 0
+    # the examples live in the modules of the atmoscatter.cache package
+    modules = [importlib.import_module(f"{cache.__name__}.{m.name}")
+               for m in pkgutil.iter_modules(cache.__path__)]
+    results = [doctest.testmod(m, optionflags=doctest.ELLIPSIS, verbose=False) for m in modules]
+    assert sum(r.attempted for r in results) >= 3 and sum(r.failed for r in results) == 0
