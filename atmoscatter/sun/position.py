@@ -52,7 +52,7 @@ from importlib import resources
 import numpy as np
 
 from . import _spa_tables as _tab
-from ._validate import as_float_array, check_option
+from .._validate import as_float_array, check_option
 
 __all__ = [
     "HORIZON_APPARENT",
