@@ -3,7 +3,7 @@
 - ``_TWO_PI``, ``_DEG``: 2π and the degree in radians.
 - ``_CHUNK``: the block size of the per-sample loops (the node interpolation in
   :mod:`atmoscatter.sun.nodes` and the topocentric geometry in :func:`sun_position`).
-- ``_horner``: a polynomial by Horner's rule (ΔT pieces, the SPA's mean elements, obliquity
+- ``_horner``: a polynomial by Horner's rule (ΔT pieces, the nutation arguments, obliquity
   and equation of time).
 - ``_checked``, ``_describe_first``, ``_out_dtype``: the numeric input checks of the public
   functions (finite values in a stated range, named in the error message) and the output
