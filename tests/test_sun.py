@@ -16,6 +16,9 @@ import pytest
 
 import atmoscatter as ac
 from atmoscatter import sun as S
+from atmoscatter.sun import delta_t as sun_delta_t
+from atmoscatter.sun import nodes, position, spa, topocentric
+from atmoscatter.sun import time as sun_time
 
 pvlib = pytest.importorskip("pvlib")
 pd = pytest.importorskip("pandas")
@@ -105,8 +108,8 @@ def test_against_pvlib_random_1900_2100(dt_mode):
 def test_against_pvlib_interpolated_path():
     """Dense times (20 000 in 2 years → the interpolated path) at random sites: ≤ 1e-5°."""
     t, lat, lon, elev, pres, temp = _random_inputs(2, 20000, start="2023-06-01", years=2)
-    d = S._days_since_j2000(t.astype("datetime64[us]"), "t")
-    assert S._spa_interpolated(d, None) is not None  # this batch does use interpolation
+    d = sun_time._days_since_j2000(t.astype("datetime64[us]"), "t")
+    assert nodes._spa_interpolated(d, None) is not None  # this batch does use interpolation
     sp = S.sun_position(t, lat, lon, elevation=elev, pressure=pres, temperature=temp)
     app, true, azi, _ = _pvlib_spa(t, lat, lon, elev, pres, temp, S.default_delta_t(t))
     assert np.max(np.abs(np.rad2deg(sp.zenith) - app)) < 1e-5
@@ -121,16 +124,16 @@ def test_interpolation_error_bound():
     """
     rng = np.random.default_rng(3)
     d = rng.uniform(-36525.0, 36525.0, 200_000)
-    a = S._spa_columns(d, None, interpolate=True)
-    b = S._spa_columns(d, None, interpolate=False)
+    a = nodes._spa_columns(d, None, interpolate=True)
+    b = nodes._spa_columns(d, None, interpolate=False)
     assert np.max(np.abs(a["q"] - b["q"])) < 1e-5 * DEG
     assert np.max(np.abs(a["dec"] - b["dec"])) < 1e-5 * DEG
     assert np.max(np.abs(a["sin_dec"] - b["sin_dec"])) < 1e-5 * DEG
     assert np.max(np.abs(a["dist"] - b["dist"])) < 1e-7
     assert np.max(np.abs(a["eot"] - b["eot"])) < 1e-4
     # a scalar ΔT interpolates too, with the same bound
-    a = S._spa_columns(d, np.float64(69.0), interpolate=True)
-    b = S._spa_columns(d, np.float64(69.0), interpolate=False)
+    a = nodes._spa_columns(d, np.float64(69.0), interpolate=True)
+    b = nodes._spa_columns(d, np.float64(69.0), interpolate=False)
     assert np.max(np.abs(a["q"] - b["q"])) < 1e-5 * DEG
 
 
@@ -138,10 +141,10 @@ def test_node_runs_match_direct_spa():
     """Nodes evaluated in runs (rotation recurrences) equal the direct SPA to < 1e-8°."""
     ids = np.arange(-18 * 32, 18 * 32) * 97  # 1152 runs spread over 1700–2300 (2-day step)
     ids = (ids[:, None] + np.arange(32)).ravel()
-    dn = ids * S._NODE_STEP
-    dts = S._delta_t_of_year(2000.0 + dn / 365.25)
-    a = S._spa_time_terms(dn, dts, run_step=S._NODE_STEP)
-    b = S._spa_direct(dn, dts)
+    dn = ids * nodes._NODE_STEP
+    dts = sun_delta_t._delta_t_of_year(2000.0 + dn / 365.25)
+    a = spa._spa_time_terms(dn, dts, run_step=nodes._NODE_STEP)
+    b = spa._spa_direct(dn, dts)
     assert np.max(np.abs(a["q"] - b["q"])) < 1e-8 * DEG
     assert np.max(np.abs(a["dec"] - b["dec"])) < 1e-8 * DEG
     assert np.max(np.abs(a["dist"] - b["dist"])) < 1e-12
@@ -230,7 +233,7 @@ def test_broadcasting_matches_elementwise():
 
 def test_large_chunked_batch_matches_small():
     """A batch larger than the block size gives the same values as small batches."""
-    t = np.datetime64("2022-01-01") + np.arange(3 * S._CHUNK + 17) * np.timedelta64(61, "s")
+    t = np.datetime64("2022-01-01") + np.arange(3 * position._CHUNK + 17) * np.timedelta64(61, "s")
     big = S.sun_position(t, 10.0, 20.0)
     small = S.sun_position(t[-50:], 10.0, 20.0)
     assert np.allclose(big.zenith[-50:], small.zenith, atol=1e-12)
@@ -238,12 +241,12 @@ def test_large_chunked_batch_matches_small():
 
 def test_wide_trailing_axis_is_blocked(monkeypatch):
     """Blocks stay bounded when one row is larger than the block size (shape (2, n))."""
-    monkeypatch.setattr(S, "_CHUNK", 64)
+    monkeypatch.setattr(position, "_CHUNK", 64)
     t = np.datetime64("2022-01-01") + np.arange(2) * np.timedelta64(5, "h")
     lat = np.linspace(-80, 80, 1000)
     wide = S.sun_position(t[:, None], lat, 30.0)
-    assert [len(list(S._blocks((2, 1000), 64)))] == [2 * 16]
-    monkeypatch.setattr(S, "_CHUNK", 1 << 15)
+    assert [len(list(topocentric._blocks((2, 1000), 64)))] == [2 * 16]
+    monkeypatch.setattr(position, "_CHUNK", 1 << 15)
     ref = S.sun_position(t[:, None], lat, 30.0)
     assert np.array_equal(wide.zenith, ref.zenith) and np.array_equal(wide.direction, ref.direction)
 
@@ -740,8 +743,8 @@ def test_node_cache_gives_identical_results_and_stays_bounded(monkeypatch):
     # runs in other groupings (blocks of ≤ 16 runs), so their node values may differ by the
     # rounding bounds above (_NODE_ATOL); the zenith depends on q and dec with slopes ≤ 1,
     # through 4-point Lagrange weights whose absolute sum is ≤ 1.25: ≤ 1.25·(tol_q + tol_dec).
-    monkeypatch.setattr(S, "_RUN_CACHE", {})
-    monkeypatch.setattr(S, "_RUN_CACHE_MAX", 50)
+    monkeypatch.setattr(nodes, "_RUN_CACHE", {})
+    monkeypatch.setattr(nodes, "_RUN_CACHE_MAX", 50)
     rng = np.random.default_rng(21)
     t = (np.datetime64("1990-01-01", "s")  # dense enough for the interpolated path
          + rng.integers(0, 20 * 365 * 86400, 20000).astype("timedelta64[s]"))
@@ -749,7 +752,7 @@ def test_node_cache_gives_identical_results_and_stays_bounded(monkeypatch):
         cold = S.sun_position(t, 10.0, 20.0, delta_t=dts).zenith
         warm = S.sun_position(t, 10.0, 20.0, delta_t=dts).zenith
         np.testing.assert_allclose(warm, cold, rtol=0, atol=1.25 * 2 * _ANGLE_TOL)
-    assert 0 < len(S._RUN_CACHE) <= 50
+    assert 0 < len(nodes._RUN_CACHE) <= 50
 
 
 def test_shipped_node_table_matches_the_spa_code():
@@ -760,18 +763,18 @@ def test_shipped_node_table_matches_the_spa_code():
     # for bit.  The test still catches a change of the SPA code or of ΔT: ΔT changed by
     # just 1 ms moves q, dec, dist, eot by up to 2.2e-10 rad, 8.0e-11 rad, 3.4e-12 AU and
     # 5.8e-9 min (measured over 1900–2100), 2× to 240× the bounds.
-    table = S._node_table()
+    table = nodes._node_table()
     assert table is not None, "shipped SPA node table missing or made with other settings"
     first, runs = table
-    assert runs.shape[1:] == (S._RUN, len(S._COLUMNS))
+    assert runs.shape[1:] == (spa._RUN, len(spa._COLUMNS))
     rng = np.random.default_rng(8)
     sample = np.unique(np.concatenate([[0, runs.shape[0] - 1], rng.integers(0, runs.shape[0], 12)]))
-    fresh = S._node_runs(sample + first, None, use_table=False)
+    fresh = nodes._node_runs(sample + first, None, use_table=False)
     diff = np.abs(runs[sample] - fresh)
     np.testing.assert_array_less(diff, np.broadcast_to(_NODE_ATOL, diff.shape))
     # and the table covers 1900-01-01 … 2100-12-31 (plus the interpolation stencil)
     d = (np.array(["1900-01-01", "2100-12-31"], dtype="datetime64[s]")
          - np.datetime64("2000-01-01T12:00", "s")) / np.timedelta64(1, "D")
-    node = np.floor(d / S._NODE_STEP).astype(int)
-    assert (node[0] - 1) // S._RUN >= first
-    assert (node[1] + 2) // S._RUN < first + runs.shape[0]
+    node = np.floor(d / nodes._NODE_STEP).astype(int)
+    assert (node[0] - 1) // spa._RUN >= first
+    assert (node[1] + 2) // spa._RUN < first + runs.shape[0]
