@@ -73,7 +73,7 @@ from ..scattering import (
     rayleigh_scattering_standard_air,
 )
 from ..solar import extraterrestrial_irradiance
-from .preetham import _sun, _views
+from ._preetham_eval import _sun, _views
 
 #: Directions per chunk of the NumPy evaluation (bounded memory).
 _CHUNK = 1 << 16
