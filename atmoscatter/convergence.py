@@ -172,12 +172,12 @@ def _rel_errors(got: np.ndarray, ref: np.ndarray) -> np.ndarray:
 
 
 def _timed(fn, repeat: int):
-    from .sky import single as _single
+    from .sky import _single_table
 
     best = np.inf
     out = None
     for _ in range(max(1, repeat)):
-        _single._TABLE_CACHE.clear()  # every timing includes building the table
+        _single_table._TABLE_CACHE.clear()  # every timing includes building the table
         t0 = time.perf_counter()
         out = fn()
         best = min(best, time.perf_counter() - t0)

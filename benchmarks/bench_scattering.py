@@ -33,12 +33,12 @@ def test_single_scattering_default_ground(benchmark, earth, n):
     """Default method (table path for these batch sizes), clear sky, sun 30° high.
 
     The table cache is cleared before every round, so the time includes building it."""
-    import atmoscatter.sky.single as single_mod
+    import atmoscatter.sky._single_table as table_mod
 
     v = _upper_hemisphere(n)
 
     def setup():
-        single_mod._TABLE_CACHE.clear()  # time the table build too, every round
+        table_mod._TABLE_CACHE.clear()  # time the table build too, every round
         return (earth, v, _SUN), {}
 
     out = benchmark.pedantic(ac.single_scattering, setup=setup, rounds=3)
@@ -83,12 +83,12 @@ def test_peak_memory_bounded(earth):
     """Peak memory beyond input and output does not grow with the number of directions."""
     import tracemalloc
 
-    import atmoscatter.sky.single as single_mod
+    import atmoscatter.sky._single_table as table_mod
 
     extra = {}
     for n in (100_000, 1_000_000):
         v = _upper_hemisphere(n)
-        single_mod._TABLE_CACHE.clear()
+        table_mod._TABLE_CACHE.clear()
         tracemalloc.start()
         out = ac.single_scattering(earth, v, _SUN)
         peak = tracemalloc.get_traced_memory()[1]
@@ -117,14 +117,14 @@ def test_single_scattering_twilight_large(benchmark, earth, elev):
 
 def test_single_scattering_low_sun_hazy_large(benchmark):
     """Turbidity 6, sun 1° high: the checked table (build included, cache cleared)."""
-    import atmoscatter.sky.single as single_mod
+    import atmoscatter.sky._single_table as table_mod
 
     atm = ac.earth_turbidity_atmosphere(6)
     v = _upper_hemisphere(_N_LARGE)
     sun = np.array([0.0, np.cos(np.radians(1.0)), np.sin(np.radians(1.0))])
 
     def setup():
-        single_mod._TABLE_CACHE.clear()
+        table_mod._TABLE_CACHE.clear()
         return (atm, v, sun), {}
 
     out = benchmark.pedantic(ac.single_scattering, setup=setup, rounds=1)

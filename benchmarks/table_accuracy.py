@@ -24,6 +24,7 @@ import numpy as np
 import atmoscatter as ac
 from atmoscatter.render.directions import LatLongDirections
 from atmoscatter.sky import _quadrature as qd
+from atmoscatter.sky import _single_rules, _single_table
 from atmoscatter.sky import single as S
 
 SIZES = [(65, 17), (97, 17), (129, 17), (129, 33), (193, 17)]
@@ -38,7 +39,7 @@ def _sun(elev):
 def _radiance(table, a, v, s):
     J = np.zeros((len(a.profiles), v.shape[0], a.n_wavelengths))
     J[table.groups] = table.J(v)
-    return S._radiance_from_J(a, J, v, s)
+    return _single_rules._radiance_from_J(a, J, v, s)
 
 
 def main(argv=None):
@@ -62,7 +63,7 @@ def main(argv=None):
         mx = ref.max(axis=0)
         for n_u, n_phi in sizes:
             t0 = time.perf_counter()
-            tab = S._LogSkyTable(a, a.planet_radius, s, n_u, n_phi, 4)
+            tab = _single_table._LogSkyTable(a, a.planet_radius, s, n_u, n_phi, 4)
             t1 = time.perf_counter()
             got = _radiance(tab, a, v, s)
             t2 = time.perf_counter()

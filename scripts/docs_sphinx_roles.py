@@ -7,7 +7,9 @@ sources (they read well in ``help()``), this Griffe extension translates them wh
 mkdocstrings loads the package:
 
 * a role whose target is an object the API reference renders becomes an autorefs
-  cross-reference ``[`name`][canonical.path]``; any other target (private helpers, the standard
+  cross-reference ``[`name`][canonical.path]`` (an object defined in a private module and
+  re-exported through the ``__all__`` of a documented module links to that re-export, which
+  is where mkdocstrings renders it); any other target (private helpers, the standard
   library, SciPy, undocumented constants) becomes plain code ``name``;
 * ``.. math::`` becomes a ``$$ … $$`` block and ``:math:`x``` becomes ``$x$``, which
   ``pymdownx.arithmatex`` marks up and ``scripts/docs_hooks.py`` turns into MathML at build time
@@ -120,16 +122,29 @@ class _Resolver:
         self.pkg = pkg
         self.documented = documented
         self.by_name: dict = {}
+        self.reexports: dict = {}  # path of an object in a private module -> its re-export
         self._index(pkg)
 
     def _index(self, mod) -> None:
         for name, member in mod.members.items():
             if member.is_alias:
+                self._index_reexport(mod, member)
                 continue
             if member.is_module:
                 self._index(member)
             elif not name.startswith("_"):
                 self.by_name.setdefault(name, member)
+
+    def _index_reexport(self, mod, alias) -> None:
+        """Record ``alias`` if a documented module exports it (``__all__``): mkdocstrings
+        renders it there, under the re-export's path, so links to its target go there."""
+        if mod.path not in self.documented or not alias.is_exported:
+            return
+        try:
+            target = alias.final_target
+        except Exception:  # noqa: BLE001 — unresolvable alias (external, wildcard)
+            return
+        self.reexports.setdefault(target.path, alias)
 
     def _lookup(self, path: str):
         parts = path.split(".")
@@ -149,7 +164,14 @@ class _Resolver:
         return obj
 
     def resolve(self, target: str, scope):
-        """Object named ``target`` from the docstring of ``scope`` (or None)."""
+        """Object named ``target`` from the docstring of ``scope`` (or None); an object of a
+        private module is replaced by its documented re-export, if there is one."""
+        found = self._resolve(target, scope)
+        if found is not None and not self.rendered(found):
+            return self.reexports.get(found.path, found)
+        return found
+
+    def _resolve(self, target: str, scope):
         if target.startswith("."):  # relative to the current module's package
             mod = scope if scope.is_module else scope.module
             base = mod.path if mod.is_package else mod.path.rsplit(".", 1)[0]
@@ -175,6 +197,8 @@ class _Resolver:
         if any(p.startswith("_") and not (p.startswith("__") and p.endswith("__"))
                for p in path.split(".")):
             return False
+        if obj.is_alias:  # a re-export: rendered by the module whose __all__ lists it
+            return obj.parent.path in self.documented and obj.is_exported and bool(obj.docstring)
         if obj.is_module:
             return path in self.documented
         if obj.module.path not in self.documented:

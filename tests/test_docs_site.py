@@ -78,6 +78,9 @@ def test_math_and_cross_references_render(site):
     # a Sphinx role became a link to the object's anchor (same page and across pages)
     assert 'href="#atmoscatter.sky.single.single_scattering"' in single
     assert "../sky_multiple/#atmoscatter.sky.multiple.multiple_scattering" in single
+    # an object defined in a private module links to where its module's __all__ re-exports
+    # it (TABLE_FLOOR lives in sky/_single_table.py): its permalink and a role's link
+    assert single.count('href="#atmoscatter.sky.single.TABLE_FLOOR"') >= 2
     # seed mentions link to the bibliography, whose anchors exist
     sun = pages[os.path.join("theory", "sun", "index.html")]
     assert 'href="../../bibliography/#seed-003"' in sun
@@ -115,3 +118,23 @@ def test_public_objects_section_becomes_a_list():
     out = docs_sphinx_roles.convert(text)
     assert "- `foo`, `BAR` —\n    What they are." in out
     assert out.endswith("Notes\n-----\nx\n    y")  # other sections are left alone
+
+
+def test_explicit_member_lists_name_every_public_class_and_function():
+    """A page that lists a module's members (to keep the source order of names re-exported
+    from private modules) renders every class and function of the module's ``__all__``."""
+    import importlib
+    import inspect
+
+    block = re.compile(r"^::: (\S+)\n    options:\n      members:\n((?:        - \S+\n)+)", re.M)
+    found = 0
+    for page in sorted((ROOT / "docs" / "api").glob("*.md")):
+        for m in block.finditer(page.read_text(encoding="utf-8")):
+            found += 1
+            mod = importlib.import_module(m.group(1))
+            listed = re.findall(r"- (\S+)", m.group(2))
+            public = {n for n in mod.__all__
+                      if inspect.isclass(getattr(mod, n)) or inspect.isroutine(getattr(mod, n))}
+            assert set(listed) <= set(mod.__all__), f"{page.name}: not exported: {set(listed) - set(mod.__all__)}"
+            assert public <= set(listed), f"{page.name}: not rendered: {sorted(public - set(listed))}"
+    assert found >= 2  # sky_single.md and sky_aerial.md

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 import atmoscatter as ac
-from atmoscatter.sky import preetham as pm
+from atmoscatter.sky import _preetham_eval as pm
 
 # (a, b) per coefficient, rows A..E; errata 003.3 / Preetham et al. 1999 Appendix A.2.
 REF_Y = [(0.1787, -1.4630), (-0.3554, 0.4275), (-0.0227, 5.3251), (0.1206, -2.5771), (-0.0670, 0.3703)]

@@ -15,6 +15,7 @@ import pytest
 from scipy import integrate
 
 import atmoscatter as ac
+from atmoscatter.sky import _single_table
 from atmoscatter.sky.single import (
     DEFAULT_SINGLE_SCATTERING_METHOD,
     SINGLE_SCATTERING_METHODS,
@@ -544,13 +545,13 @@ def _check_batch_independent(atm, elev, alt, stride, monkeypatch=None):
     v = _latlong()
     assert v.shape[0] >= single_mod.TABLE_THRESHOLD
     s = _sun(elev)
-    single_mod._TABLE_CACHE.clear()
+    _single_table._TABLE_CACHE.clear()
     if monkeypatch is not None:
         monkeypatch.setattr(single_mod, "TWILIGHT_TABLE_THRESHOLD", v.shape[0])
     big = single_scattering(atm, v, s, altitude=alt)[::stride]
     if monkeypatch is not None and not any(np.any(b < alt) for b in
                                            single_mod.qd.prepare_atmosphere(atm).breakpoints):
-        assert single_mod._TABLE_CACHE, "the table path was not taken"
+        assert _single_table._TABLE_CACHE, "the table path was not taken"
         monkeypatch.setattr(single_mod, "TWILIGHT_TABLE_THRESHOLD", 1 << 62)
     sub = v[::stride]
     ref = single_scattering(atm, sub, s, altitude=alt, method="reference")
@@ -603,14 +604,14 @@ def test_twilight_table_needs_the_neighbour_cells(T, elev):
     s = _sun(elev)
     ref = single_scattering(atm, v, s, method="graded")
     bright = ref >= single_mod.TABLE_FLOOR * ref.max(axis=0)
-    single_mod._TABLE_CACHE.clear()
+    _single_table._TABLE_CACHE.clear()
     got = single_scattering(atm, v, s, method="table")
     assert _max_rel(got[bright], ref[bright]) < 1e-3
     with pytest.MonkeyPatch.context() as mp:
         mp.setattr(single_mod, "_dilate", lambda m: m)
-        single_mod._TABLE_CACHE.clear()
+        _single_table._TABLE_CACHE.clear()
         raw = single_scattering(atm, v, s, method="table")
-    single_mod._TABLE_CACHE.clear()
+    _single_table._TABLE_CACHE.clear()
     assert _max_rel(raw[bright], ref[bright]) > 1e-3
 
 
@@ -628,9 +629,9 @@ def test_table_self_check_falls_back_to_direct_integration():
     atm = ac.earth_turbidity_atmosphere(10)
     v = _latlong(32, 32)
     s = _sun(1.0)
-    single_mod._TABLE_CACHE.clear()
+    _single_table._TABLE_CACHE.clear()
     got = single_scattering(atm, v, s, method="table", samples=17)
-    table = next(iter(single_mod._TABLE_CACHE.values()))
+    table = next(iter(_single_table._TABLE_CACHE.values()))
     assert table.n_bad > 0
     ref = single_scattering(atm, v, s, method="reference")
     bright = ref >= single_mod.TABLE_FLOOR * ref.max(axis=0)
@@ -754,14 +755,14 @@ def test_render_uses_the_twilight_table_for_the_whole_sky(monkeypatch):
 
     monkeypatch.setattr(single_mod, "TABLE_THRESHOLD", 512)
     monkeypatch.setattr(single_mod, "TWILIGHT_TABLE_THRESHOLD", 1024)
-    single_mod._TABLE_CACHE.clear()
+    _single_table._TABLE_CACHE.clear()
     common = dict(model="single_scattering", sun_elevation_deg=-4.0, width=96, height=48,
                   output="xyz", sampling="rgb")
     fast = ac.render(ac.Scene(**common), batch_size=256)  # batches far below the threshold
-    assert single_mod._TABLE_CACHE, "the table was not used"
-    single_mod._TABLE_CACHE.clear()
+    assert _single_table._TABLE_CACHE, "the table was not used"
+    _single_table._TABLE_CACHE.clear()
     direct = ac.render(ac.Scene(**common, method="graded"), batch_size=256)
-    assert not single_mod._TABLE_CACHE
+    assert not _single_table._TABLE_CACHE
     a, b = fast.xyz, direct.xyz
     bright = b >= single_mod.TABLE_FLOOR * b.max(axis=(0, 1))
     assert bright.any()

@@ -48,8 +48,9 @@ import math
 import numpy as np
 
 from .._validate import as_float_array, check_option, check_positive
+from ._preetham_eval import _sun, _views
 from .perez import _horizon_term
-from .preetham import _sun, _views, preetham_zenith
+from .preetham import preetham_zenith
 
 __all__ = [
     "CIE_ZENITH_LUMINANCE_METHODS",

@@ -86,14 +86,9 @@ from ._ms_gather import gather as _gather_kernel
 from ._ms_gather import have_kernel as _have_kernel
 from ._ms_gather import kernel as _ms_kernel
 from ._ms_gather import log_table as _log_table
-from .single import (
-    TABLE_THRESHOLD,
-    _Batch,
-    _extinction_scale,
-    _prepare_inputs,
-    _SkyTable,
-    single_scattering,
-)
+from ._single_rules import _Batch, _extinction_scale
+from ._sky_table import _SkyTable
+from .single import TABLE_THRESHOLD, _prepare_inputs, single_scattering
 
 __all__ = ["multiple_scattering", "MULTIPLE_SCATTERING_GRID", "MultipleScatteringGrid"]
 

@@ -51,24 +51,26 @@ Wyszecki, G. & Stiles, W. S. (1982). *Color Science*, 2nd ed., §3.3.4 (CIE dayl
 
 from __future__ import annotations
 
-import importlib.util
-import math
-import os
-import threading
 import warnings
-from concurrent.futures import ThreadPoolExecutor
 from functools import lru_cache
 
 import numpy as np
 
 from .._validate import as_float_array, check_option
-from ..colour import K_M, XYZ_to_linear_rgb, cmf_weights, spectral_to_XYZ
+from ..colour import K_M, XYZ_to_linear_rgb, cmf_weights
+from ._preetham_eval import _CHUNK, _KIND_RGB, _KIND_XYZ, _KIND_YXY, _evaluate
+from ._preetham_fit import (
+    PREETHAM_DISTRIBUTION_MATRIX,
+    PREETHAM_TURBIDITY_RANGE,
+    PREETHAM_ZENITH_CHROMATICITY_MATRICES,
+    PreethamValidityWarning,
+    _BLACK_xy,
+    _coefficients,
+    _turbidity,
+    _zenith,
+)
+from ._preetham_spectral import _M_METHODS, DEFAULT_WAVELENGTHS, _daylight_basis, _daylight_M
 from .perez import _horizon_term
-
-#: Whether numba is installed (the compiled kernels of :mod:`._preetham_kernels` are imported
-#: on first use, not here, so that ``import atmoscatter`` stays light; the NumPy path computes
-#: the same model without them).
-_HAVE_NUMBA = importlib.util.find_spec("numba") is not None
 
 __all__ = [
     "PREETHAM_DISTRIBUTION_MATRIX",
@@ -84,89 +86,10 @@ __all__ = [
     "preetham_sky_spectral",
 ]
 
-#: Perez coefficients of the Preetham model: ``[A, B, C, D, E] = M[k] @ [T, 1]`` for
-#: k = Y, x, y (rows), shape (3, 5, 2). Preetham et al. (1999), Appendix A.2; errata 003.3.
-PREETHAM_DISTRIBUTION_MATRIX: np.ndarray = np.array(
-    [
-        [[0.1787, -1.4630], [-0.3554, 0.4275], [-0.0227, 5.3251], [0.1206, -2.5771],
-         [-0.0670, 0.3703]],
-        [[-0.0193, -0.2592], [-0.0665, 0.0008], [-0.0004, 0.2125], [-0.0641, -0.8989],
-         [-0.0033, 0.0452]],
-        [[-0.0167, -0.2608], [-0.0950, 0.0092], [-0.0079, 0.2102], [-0.0441, -1.6537],
-         [-0.0109, 0.0529]],
-    ]
-)  # fmt: skip
-PREETHAM_DISTRIBUTION_MATRIX.flags.writeable = False
-
-#: Zenith chromaticity matrices ``(M_x, M_y)``, shape (2, 3, 4):
-#: ``x_z = [T², T, 1] · M_x · [θ_s³, θ_s², θ_s, 1]ᵀ`` with θ_s in radians.
-#: Preetham et al. (1999), Appendix A.2; errata 003.3.
-PREETHAM_ZENITH_CHROMATICITY_MATRICES: np.ndarray = np.array(
-    [
-        [[0.00166, -0.00375, 0.00209, 0.0],
-         [-0.02903, 0.06377, -0.03202, 0.00394],
-         [0.11693, -0.21196, 0.06052, 0.25886]],
-        [[0.00275, -0.00610, 0.00317, 0.0],
-         [-0.04214, 0.08970, -0.04153, 0.00516],
-         [0.15346, -0.26756, 0.06670, 0.26688]],
-    ]
-)  # fmt: skip
-PREETHAM_ZENITH_CHROMATICITY_MATRICES.flags.writeable = False
-
-#: Turbidity range of the fit (Preetham et al. 1999; errata 003.4). [1]
-PREETHAM_TURBIDITY_RANGE: tuple[float, float] = (2.0, 10.0)
-
-#: Chromaticity reported for black (zero luminance): CIE D65, 2° observer (as colour-science).
-_BLACK_xy = (0.3127, 0.3290)
-
-_OUT_OF_RANGE_POLICIES = ("warn", "raise")
-_BACKENDS = ("auto", "numba", "numpy")
-#: Elements per chunk of the NumPy path (bounded memory: ~30 temporaries of this size).
-_CHUNK = 1 << 16
-
-
-class PreethamValidityWarning(UserWarning):
-    """The Preetham model left its fitted domain: turbidity clamped into [2, 10], or negative
-    spectral values from the D-series reconstruction (see :func:`preetham_sky_spectral`)."""
-
 
 # ----------------------------------------------------------------------------------------------
 # building blocks
 # ----------------------------------------------------------------------------------------------
-def _turbidity(turbidity, out_of_range: str, *, scalar: bool = False) -> np.ndarray:
-    """Apply the validity policy to ``turbidity``; returns the (clamped) float64 array."""
-    check_option(out_of_range, "out_of_range", _OUT_OF_RANGE_POLICIES)
-    if type(turbidity) in (float, int) and 2.0 <= turbidity <= 10.0:  # fast path, in range
-        return np.float64(turbidity)
-    T = as_float_array(turbidity, "turbidity").astype(np.float64)
-    if scalar and T.ndim != 0:
-        raise ValueError(
-            f"turbidity must be a scalar for direction-based Preetham skies, got shape {T.shape}"
-        )
-    bad = ~np.isfinite(T) | (T < 1.0)
-    if np.any(bad):
-        value = T[bad].ravel()[0] if T.ndim else T.item()
-        raise ValueError(
-            f"turbidity must be finite and >= 1 (T = (tau_m + tau_h)/tau_m), got {value!r}"
-        )
-    lo, hi = PREETHAM_TURBIDITY_RANGE
-    outside = (T < lo) | (T > hi)
-    if np.any(outside):
-        value = T[outside].ravel()[0] if T.ndim else T.item()
-        if out_of_range == "raise":
-            raise ValueError(
-                f"turbidity must be in [{lo}, {hi}] (range of the Preetham fit), got {value!r}"
-            )
-        warnings.warn(
-            f"turbidity {value!r} is outside the Preetham fit's range [{lo}, {hi}]; "
-            f"evaluating at the clamped turbidity {min(max(value, lo), hi)!r}",
-            PreethamValidityWarning,
-            stacklevel=4,
-        )
-        T = np.clip(T, lo, hi)
-    return T
-
-
 def preetham_distribution_coefficients(turbidity, *, out_of_range: str = "warn") -> np.ndarray:
     """Perez distribution coefficients of the Preetham model.
 
@@ -188,25 +111,6 @@ def preetham_distribution_coefficients(turbidity, *, out_of_range: str = "warn")
     """
     T = _turbidity(turbidity, out_of_range)
     return _coefficients(T)
-
-
-def _coefficients(T: np.ndarray) -> np.ndarray:
-    M = PREETHAM_DISTRIBUTION_MATRIX
-    return M[..., 0] * T[..., None, None] + M[..., 1]
-
-
-def _zenith(T: np.ndarray, sun_zenith: np.ndarray) -> np.ndarray:
-    """Y_z [cd m⁻²], x_z, y_z on the last axis for sun zenith in [0, π/2] (no checks)."""
-    chi = (4.0 / 9.0 - T / 120.0) * (np.pi - 2.0 * sun_zenith)
-    Yz = ((4.0453 * T - 4.9710) * np.tan(chi) - 0.2155 * T + 2.4192) * 1000.0
-    t_pow = np.stack([T * T, T, np.ones_like(T)], axis=-1)
-    s_pow = np.stack(
-        [sun_zenith**3, sun_zenith**2, sun_zenith, np.ones_like(sun_zenith)], axis=-1
-    )
-    M = PREETHAM_ZENITH_CHROMATICITY_MATRICES
-    xz = np.einsum("...i,ij,...j->...", t_pow, M[0], s_pow)
-    yz = np.einsum("...i,ij,...j->...", t_pow, M[1], s_pow)
-    return np.stack(np.broadcast_arrays(Yz, xz, yz), axis=-1)
 
 
 def preetham_zenith(turbidity, sun_zenith, *, out_of_range: str = "warn") -> np.ndarray:
@@ -297,218 +201,8 @@ def preetham_Yxy(view_zenith, gamma, sun_zenith, turbidity, *, out_of_range: str
 
 
 # ----------------------------------------------------------------------------------------------
-# direction-based evaluation: shared set-up, NumPy path and compiled kernel
+# direction-based evaluation (the machinery is in ._preetham_eval)
 # ----------------------------------------------------------------------------------------------
-_KIND_XYZ, _KIND_YXY, _KIND_RGB = 0, 1, 2
-
-
-def _sun(sun_direction) -> np.ndarray:
-    """The unit sun vector (float64, shape (3,)), validated."""
-    s = as_float_array(sun_direction, "sun_direction").astype(np.float64)
-    if s.shape != (3,):
-        raise ValueError(f"sun_direction must have shape (3,), got shape {s.shape}")
-    x, y, z = s.tolist()
-    norm = math.sqrt(x * x + y * y + z * z)
-    if not math.isfinite(norm):
-        raise ValueError(f"sun_direction must be finite, got {s.tolist()!r}")
-    if norm == 0.0:
-        raise ValueError("sun_direction must be a non-zero vector, got [0, 0, 0]")
-    return s / norm
-
-
-def _views(view_directions) -> np.ndarray:
-    v = as_float_array(view_directions, "view_directions")
-    if v.ndim == 0 or v.shape[-1] != 3:
-        raise ValueError(
-            f"view_directions must have shape (..., 3) (x=east, y=north, z=up), got shape {v.shape}"
-        )
-    if v.dtype != np.float32:
-        v = v.astype(np.float64, copy=False)
-    return v
-
-
-def _setup(sun: np.ndarray, T: float):
-    """Per-call constants: coefficient table (3, 5) and zenith values divided by F(0, θ_s)."""
-    return _setup_cached(float(T), float(sun[2]))
-
-
-@lru_cache(maxsize=64)
-def _setup_cached(T: float, cos_sun_zenith: float):
-    """:func:`_setup` for a turbidity and sun height (cached: repeated calls for one frame).
-
-    Scalar Python arithmetic (the same formulas as :func:`_zenith`), to keep the per-call
-    overhead of the direction API small. Returns read-only arrays.
-    """
-    ts = math.acos(min(max(cos_sun_zenith, -1.0), 1.0))
-    M = PREETHAM_DISTRIBUTION_MATRIX
-    coef = M[..., 0] * T + M[..., 1]  # (3, 5)
-    chi = (4.0 / 9.0 - T / 120.0) * (math.pi - 2.0 * ts)
-    Yz = ((4.0453 * T - 4.9710) * math.tan(chi) - 0.2155 * T + 2.4192) * 1000.0
-    t_pow = (T * T, T, 1.0)
-    s_pow = (ts**3, ts**2, ts, 1.0)
-    Mxy = PREETHAM_ZENITH_CHROMATICITY_MATRICES.tolist()
-    xz, yz = (
-        sum(t_pow[i] * m[i][j] * s_pow[j] for i in range(3) for j in range(4)) for m in Mxy
-    )
-    cs2 = math.cos(ts) ** 2
-    zen = []
-    for k, z in enumerate((Yz, xz, yz)):
-        A, B, C, D, E = coef[k].tolist()
-        zen.append(z / ((1.0 + A * math.exp(B)) * (1.0 + C * math.exp(D * ts) + E * cs2)))
-    coef = np.ascontiguousarray(coef)
-    zen = np.array(zen)
-    coef.flags.writeable = False
-    zen.flags.writeable = False
-    return coef, zen
-
-
-def _numpy_chunk(v, sun, coef, zen_scaled, matrix, kind, out):
-    """Straightforward NumPy evaluation of one chunk ``v`` (n, 3) into ``out`` (n, 3)."""
-    v = v.astype(np.float64)
-    inv = 1.0 / np.sqrt(np.einsum("ij,ij->i", v, v))
-    cos_t = v[:, 2] * inv
-    cos_g = np.clip((v @ sun) * inv, -1.0, 1.0)
-    gamma = np.arccos(cos_g)[:, None]
-    A, B, C, D, E = (coef[:, i] for i in range(5))
-    F = (1.0 + A * _horizon_term(cos_t[:, None], B)) * (
-        1.0 + C * np.exp(D * gamma) + E * (cos_g * cos_g)[:, None]
-    )
-    Yxy = F * zen_scaled
-    if kind == _KIND_YXY:
-        out[...] = Yxy
-        return
-    Y, x, y = Yxy[:, 0], Yxy[:, 1], Yxy[:, 2]
-    XYZ = np.stack([x / y * Y, Y, (1.0 - x - y) / y * Y], axis=-1)
-    out[...] = XYZ if kind == _KIND_XYZ else XYZ @ matrix.T
-
-
-# The float32 path replaces the six exponentials and the arccos per direction by linear
-# interpolation in lookup tables of the two Perez factors (an algebraic shortcut, checked
-# against the float64 formula in tests/test_preetham.py with a stated tolerance of 1e-5
-# relative; measured ≤ 4e-6):
-#   circumsolar factor  1 + C e^{Dγ} + E cos²γ, tabulated uniformly in sin(γ/2) = |v̂ − ŝ|/2
-#       for γ ≤ 90° and in cos(γ/2) = |v̂ + ŝ|/2 for γ ≥ 90° (both smooth in their halves,
-#       and computed from differences of unit vectors, so accurate at γ → 0 and γ → 180°
-#       where acos of a dot product is ill-conditioned);
-#   horizon factor      1 + A e^{B/cos θ}, tabulated uniformly in cos θ ∈ [0, 1].
-_TABLE_NODES = 4096
-_SQRT_HALF = math.sqrt(0.5)
-#: Below this many directions the kernel runs in the calling thread only.
-_PARALLEL_MIN = 1 << 15
-#: Rows per task when a call is spread over threads (tasks are handed out dynamically, so a
-#: thread that the OS deschedules on a busy machine does not hold up the others).
-_TASK_ROWS = 1 << 14
-_POOL: ThreadPoolExecutor | None = None
-_POOL_PID: int | None = None
-_POOL_LOCK = threading.Lock()
-
-
-def _thread_pool() -> ThreadPoolExecutor | None:
-    """This process's worker pool (created lazily; a forked child makes its own)."""
-    global _POOL, _POOL_PID
-    workers = os.cpu_count() or 1
-    if workers < 2:
-        return None
-    with _POOL_LOCK:
-        if _POOL is None or _POOL_PID != os.getpid():
-            _POOL = ThreadPoolExecutor(max_workers=workers, thread_name_prefix="atmoscatter-sky")
-            _POOL_PID = os.getpid()
-        return _POOL
-
-
-def _run_rows(rows, n: int, args) -> None:
-    """Run the compiled row kernel ``rows(*args, start, stop)`` over ``0:n``.
-
-    The kernels release the GIL, so large calls from the main thread are split into tasks
-    over a thread pool with one worker per core. Plain Python threads (not numba's
-    OpenMP layer, whose workers spin and which is not fork-safe) keep the kernel well-behaved
-    on a shared machine and in forked worker processes. Calls from other threads (a caller
-    that parallelises itself) run in that thread.
-    """
-    pool = None
-    if n >= _PARALLEL_MIN and threading.current_thread() is threading.main_thread():
-        pool = _thread_pool()
-    if pool is None:
-        rows(*args, 0, n)
-        return
-    bounds = [(i, min(n, i + _TASK_ROWS)) for i in range(0, n, _TASK_ROWS)]
-    futures = [pool.submit(rows, *args, lo, hi) for lo, hi in bounds[1:]]
-    rows(*args, *bounds[0])
-    for f in futures:
-        f.result()
-
-
-@lru_cache(maxsize=16)
-def _tables(T: float) -> np.ndarray:
-    """Lookup table (6, 2N) of the float32 kernel for turbidity ``T`` (see :func:`._preetham_kernels._table_rows`).
-
-    Rows 0–2: horizon factor ``1 + A e^{B/cos θ}`` of Y, x, y at N nodes uniform in
-    cos θ ∈ [0, 1] (then zero padding); rows 3–5: circumsolar factor
-    ``1 + C e^{Dγ} + E cos²γ`` at N nodes uniform in sin(γ/2) ∈ [0, √½] (γ ≤ 90°) followed by
-    N nodes uniform in cos(γ/2) ∈ [0, √½] (γ ≥ 90°).
-    """
-    N = _TABLE_NODES
-    coef = _coefficients(np.asarray(T))
-    A, B, C, D, E = coef.T
-    s = np.linspace(0.0, _SQRT_HALF, N)
-    near = 2.0 * np.arcsin(s)  # γ in [0, π/2], node = sin(γ/2)
-    far = np.pi - near  # γ in [π/2, π], node = cos(γ/2)
-    g = np.concatenate([near, far])[:, None]
-    c = np.linspace(0.0, 1.0, N)[:, None]
-    tab = np.zeros((6, 2 * N))
-    tab[:3, :N] = (1.0 + A * _horizon_term(c, B)).T
-    tab[3:] = (1.0 + C * np.exp(D * g) + E * np.cos(g) ** 2).T
-    tab.flags.writeable = False
-    return tab
-
-
-def _kernels():
-    """The compiled row kernels ``(direct_rows, table_rows)`` of
-    :mod:`._preetham_kernels`, imported (and compiled or loaded from numba's cache) on first
-    use so that importing the package does not import numba; ``None`` without numba."""
-    from .._lazy import kernels  # noqa: PLC0415
-
-    k = kernels("atmoscatter.sky._preetham_kernels")
-    return None if k is None else (k._direct_rows, k._table_rows)
-
-
-def _evaluate(view_directions, sun_direction, turbidity, kind, matrix, out_of_range, backend):
-    check_option(backend, "backend", _BACKENDS)
-    if backend == "numba" and not _HAVE_NUMBA:  # pragma: no cover
-        raise ValueError("backend='numba' requested but numba is not installed")
-    T = float(_turbidity(turbidity, out_of_range, scalar=True))
-    sun = _sun(sun_direction)
-    v = _views(view_directions)
-    shape = v.shape
-    flat = np.ascontiguousarray(v.reshape(-1, 3))
-    n = flat.shape[0]
-    out = np.empty(flat.shape, dtype=v.dtype)
-    if sun[2] < 0.0:  # sun below the horizon: dark sky (documented policy)
-        out[...] = 0.0
-        if kind == _KIND_YXY:
-            out[:, 1:] = _BLACK_xy
-        out[np.isnan(flat).any(axis=1)] = np.nan
-        return out.reshape(shape)
-    if n == 0:
-        return out.reshape(shape)
-    coef, zen_scaled = _setup(sun, T)
-    matrix = np.eye(3) if matrix is None else np.ascontiguousarray(matrix, dtype=np.float64)
-    kernels = _kernels() if backend != "numpy" else None
-    if kernels is not None:
-        direct_rows, table_rows = kernels
-        if v.dtype == np.float32:
-            args = (flat, sun.astype(np.float32), _tables(T), zen_scaled, matrix, kind, out)
-            _run_rows(table_rows, n, args)
-        else:
-            _run_rows(direct_rows, n, (flat, sun, coef, zen_scaled, matrix, kind, out))
-    else:
-        with np.errstate(invalid="ignore", divide="ignore"):  # NaN/zero vectors give NaN
-            for start in range(0, n, _CHUNK):
-                sl = slice(start, start + _CHUNK)
-                _numpy_chunk(flat[sl], sun, coef, zen_scaled, matrix, kind, out[sl])
-    return out.reshape(shape)
-
-
 def preetham_sky(
     view_directions, sun_direction, turbidity, *, out_of_range="warn", backend="auto"
 ):
@@ -652,51 +346,6 @@ def preetham_sky_rgb(
 # ----------------------------------------------------------------------------------------------
 # spectral radiance (CIE D-series reconstruction)
 # ----------------------------------------------------------------------------------------------
-#: Default wavelengths of :func:`preetham_sky_spectral`: 380–780 nm every 5 nm. [nm]
-DEFAULT_WAVELENGTHS = np.arange(380.0, 781.0, 5.0)
-_M_METHODS = ("published", "exact")
-
-
-@lru_cache(maxsize=8)
-def _daylight_basis(wavelengths: tuple[float, ...]) -> tuple[np.ndarray, np.ndarray]:
-    """S0, S1, S2 on ``wavelengths`` (n, 3) and their tristimulus values (3 XYZ, 3 bases).
-
-    The basis comes from colour-science (CIE 15:2004 Table T.2, 5 nm, linearly interpolated
-    as CIE recommends); the XYZ of each basis vector uses the same integration as
-    :func:`atmoscatter.colour.spectral_to_XYZ`, so luminance scaling round-trips exactly.
-    """
-    from colour.colorimetry import SDS_BASIS_FUNCTIONS_CIE_ILLUMINANT_D_SERIES as basis
-
-    wl = np.asarray(wavelengths)
-    cols = []
-    for name in ("S0", "S1", "S2"):
-        sd = basis[name]
-        cols.append(np.interp(wl, sd.wavelengths, sd.values))
-    S = np.stack(cols, axis=-1)
-    XYZ = np.asarray(spectral_to_XYZ(S.T, wl), dtype=np.float64)  # (3 bases, 3 XYZ)
-    return S, np.ascontiguousarray(XYZ.T)  # XYZ columns = bases
-
-
-def _daylight_M(x, y, method, basis_XYZ):
-    """M1, M2 of the D-series reconstruction for chromaticity (x, y)."""
-    if method == "published":
-        # Wyszecki & Stiles (1982) / CIE 15; seed 004 "Preetham et al spectral radiance model".
-        den = 0.0241 + 0.2562 * x - 0.7341 * y
-        M1 = (-1.3515 - 1.7703 * x + 5.9114 * y) / den
-        M2 = (0.0300 - 31.4424 * x + 30.0717 * y) / den
-        return M1, M2
-    # "exact": solve X - x(X+Y+Z) = 0, Y - y(X+Y+Z) = 0 for (M1, M2) with the tristimulus
-    # values of S0, S1, S2 on the wavelength grid in use (linear in M1, M2).
-    X, Y, Z = basis_XYZ  # each (3,) over bases S0, S1, S2
-    Ssum = X + Y + Z
-    a = X[None, :] - x[:, None] * Ssum[None, :]  # (n, 3)
-    b = Y[None, :] - y[:, None] * Ssum[None, :]
-    det = a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1]
-    M1 = (-a[:, 0] * b[:, 2] + a[:, 2] * b[:, 0]) / det
-    M2 = (-a[:, 1] * b[:, 0] + a[:, 0] * b[:, 1]) / det
-    return M1, M2
-
-
 def preetham_sky_spectral(
     view_directions,
     sun_direction,
@@ -802,5 +451,3 @@ def preetham_sky_spectral(
                 stacklevel=2,
             )
     return out.reshape(Yxy.shape[:-1] + (wl.size,))
-
-
