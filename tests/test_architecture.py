@@ -8,17 +8,17 @@ dependency — or if the top-level imports of the package form a cycle.
 The layers, low to high (a module may import from its own layer or below):
 
 0. base: the shared argument checks and small utilities (``_validate``, ``_lazy``,
-   ``_progress``);
+   ``_progress``, ``_atomic``);
 1. physics: phase functions, scattering coefficients, density profiles, atmospheres and
    presets, geometry and optical length, the solar spectrum, colour, the field cache, and the
    ``sun`` package;
 2. ``sky``: the sky models;
 3. ``convergence``: the error-against-run-time study of the sky models;
-4. ``scene``: what a user sets;
-5. ``render``: plan, directions, model adapters, evaluator, image; ``integrals`` of a
-   rendered sky;
-6. files: ``exr``, ``preview``, ``compare``;
-7. applications: ``batch``, ``weather``, ``cli``.
+4. ``scene`` (what a user sets; it validates the model name against the registry of
+   :mod:`atmoscatter.render.models`, hence the shared layer) and ``render``: plan,
+   directions, model adapters, evaluator, image; ``integrals`` of a rendered sky;
+5. files: ``exr``, ``preview``, ``compare``;
+6. applications: ``batch``, ``weather``, ``cli``.
 """
 
 from __future__ import annotations
@@ -35,6 +35,7 @@ LAYERS = {
     "_validate": 0,
     "_lazy": 0,
     "_progress": 0,
+    "_atomic": 0,
     "phase": 1,
     "scattering": 1,
     "profiles": 1,
@@ -51,16 +52,16 @@ LAYERS = {
     "sky": 2,
     "convergence": 3,
     "scene": 4,
-    "render": 5,
-    "integrals": 5,
-    "_integrals_sh": 5,
-    "exr": 6,
-    "preview": 6,
-    "compare": 6,
-    "batch": 7,
-    "weather": 7,
-    "cli": 7,
-    "__main__": 7,
+    "render": 4,
+    "integrals": 4,
+    "_integrals_sh": 4,
+    "exr": 5,
+    "preview": 5,
+    "compare": 5,
+    "batch": 6,
+    "weather": 6,
+    "cli": 6,
+    "__main__": 6,
 }
 
 
@@ -169,7 +170,7 @@ def test_the_checker_sees_a_violation(tmp_path):
     fake.parent.mkdir()
     fake.write_text("def f():\n    from .cli import main\n", encoding="utf-8")
     found = [(m, _layer(m)) for m, _, _ in _imports("atmoscatter.phase", fake, False)]
-    assert ("atmoscatter.cli", 7) in found
+    assert ("atmoscatter.cli", 6) in found
 
 
 def test_no_module_is_long_without_saying_why():
