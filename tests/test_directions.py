@@ -9,13 +9,13 @@ from atmoscatter.optical_length import relative_optical_length
 from atmoscatter.render.directions import (
     ArrayDirections,
     CubeMapDirections,
-    DomeDirections,
     FisheyeDirections,
     LatLongDirections,
     exr_to_local,
     local_to_exr,
     mirror_pairs,
 )
+from atmoscatter.render.dome import DomeDirections
 
 
 def _unit(d):

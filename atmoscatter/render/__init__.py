@@ -26,7 +26,6 @@ from .directions import (
     ArrayDirections,
     CubeMapDirections,
     DirectionSet,
-    DomeDirections,
     FisheyeDirections,
     LatLongDirections,
     direction_set,
@@ -34,6 +33,7 @@ from .directions import (
     local_to_exr,
     mirror_pairs,
 )
+from .dome import DomeDirections
 from .models import MODELS, ModelAdapter, get_model, register_model, unregister_model
 from .analytic_adapters import CIE_SKY_CHROMATICITY  # importing it registers Preetham, CIE
 from .photometry import rgb_sampling_matrix
