@@ -610,7 +610,7 @@ class _FieldState:
                 path = _gather(f, mc, S, logt=logS)
             else:
                 nsc, nwl = S.shape[-2:]
-                path = mc.loc.gather(logS, mc.wt).reshape(-1, nsc, nwl).sum(axis=1)
+                path = mc.loc.gather(logS).reshape(-1, nsc, nwl).sum(axis=1)
             if E is not None:
                 e = _interp_e(f, E, mc.mus_end)
                 path += np.where(mc.ground[:, None], mc.t_end * self.albedo / np.pi * e, 0.0)
@@ -686,10 +686,9 @@ class _FieldState:
 
 @dataclass
 class _Compact:
-    """A node ray set kept between orders: located samples and float32 weights."""
+    """A node ray set kept between orders: located samples with their float32 weights."""
 
-    loc: object  # _ms_gather.Located
-    wt: np.ndarray  # (N, M, n_sc * nwl) float32
+    loc: object  # _ms_gather.Located (holds the packed (K, n_sc * nwl) float32 weights)
     ground: np.ndarray
     t_end: np.ndarray
     mus_end: np.ndarray
@@ -700,11 +699,11 @@ def _compact(field: _Field, mc: _March):
     march itself where no compiled kernel is available."""
     if not _have_kernel():
         return mc
-    loc = _Located(field.shape_out, field.h_nodes, field.ths, field.mu_out,
-                   mc.h, mc.mus, mc.mu, mc.cphi)
     N, M = mc.h.shape
     wt = np.ascontiguousarray(mc.wt.reshape(N, M, -1), dtype=np.float32)
-    return _Compact(loc, wt, mc.ground, mc.t_end, mc.mus_end)
+    loc = _Located(field.shape_out, field.h_nodes, field.ths, field.mu_out,
+                   mc.h, mc.mus, mc.mu, mc.cphi, wt)
+    return _Compact(loc, mc.ground, mc.t_end, mc.mus_end)
 
 
 def _run_cells(fn, cells, stage: str = ""):
