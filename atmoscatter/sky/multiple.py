@@ -266,12 +266,12 @@ def _march(atm: qd.PreparedAtmosphere, r0: float, v: np.ndarray, s: np.ndarray, 
         r = atm.density(g, h)
         rho.append(r)
         cum, total = qd.cumulative_panel_integral(plen, r.reshape(n, npan, q), q)
-        tau += cum[..., None] * atm.extinction[g]
+        tau += np.multiply.outer(cum, atm.extinction[g])
         tau_end += total[:, None] * atm.extinction[g]
-    trans = np.exp(-tau)
+    trans = np.exp(np.negative(tau, out=tau))
     wt = np.empty((n, sigma.shape[1], nsc, nwl))
     for i, (g, beta, _) in enumerate(atm.scatterers):
-        wt[:, :, i, :] = (weights * rho[g])[..., None] * trans * beta
+        np.multiply((weights * rho[g])[..., None] * trans, beta, out=wt[:, :, i, :])
     rr = np.sqrt(b.p2[:, None] + sigma * sigma)
     mu = np.clip(sigma / rr, -1.0, 1.0)
     t = sigma - b.s0[:, None]
@@ -427,10 +427,9 @@ class _Field:
         nphi = self.grid.n_phi
         m_full = np.arange(2 * (nphi - 1))
         phi_full = np.pi * m_full / (nphi - 1)
-        fold = np.where(m_full <= nphi - 1, m_full, 2 * (nphi - 1) - m_full)
         d_out = self.directions(self.mu_out)
-        target = (np.arange(self.grid.n_mu)[:, None] * nphi + fold[None, :]).ravel()
-        n_dir = self.grid.n_mu * nphi
+        n_mu = self.grid.n_mu
+        n_dir = n_mu * nphi
         cache = {}
         out = []
         for mu_q, w_q in zip(self.mu_q, self.mu_wq, strict=True):
@@ -445,9 +444,12 @@ class _Field:
                 for _, _, phase in self.atm.scatterers:
                     p = np.asarray(phase(cos), dtype=float) * wfull[None, :]
                     p /= np.sum(p, axis=1, keepdims=True)
-                    folded = np.zeros((d_out.shape[0], n_dir))
-                    np.add.at(folded.T, target, p.T)
-                    per.append(folded)
+                    # fold φ and 2π − φ onto the half circle (the sums np.add.at over
+                    # ``target`` would form, in the same order)
+                    p = p.reshape(-1, n_mu, 2 * (nphi - 1))
+                    folded = p[:, :, :nphi].copy()
+                    folded[:, :, 1 : nphi - 1] += p[:, :, : nphi - 1 : -1]
+                    per.append(folded.reshape(-1, n_dir))
                 cache[key] = np.asarray(per)
             out.append(cache[key])
         return np.asarray(out)
@@ -565,7 +567,12 @@ class _FieldState:
             # Σ_m Σ_i w T p_i, as (N, M, nwl) products then a BLAS-free sum over the
             # samples (a three-operand einsum here is several times slower)
             wp = np.einsum("nmiw,ni->nmw", mc.wt, P, optimize=True)
-            path = np.einsum("nmw,nmw->nw", wp, sun_t(mc.h, mc.mus))
+            # the sun's transmittance where a sample has weight (the rest of the (N, M)
+            # batch is padding of shorter rays: 0 there, as its product with wp already was)
+            keep = np.any(wp != 0, axis=-1)
+            tsun = np.zeros_like(wp)
+            tsun[keep] = sun_t(mc.h[keep], mc.mus[keep])
+            path = np.einsum("nmw,nmw->nw", wp, tsun)
             if albedo > 0:
                 e0 = np.maximum(mc.mus_end, 0.0)[:, None] * sun_t(np.zeros_like(mc.mus_end),
                                                                    mc.mus_end)
