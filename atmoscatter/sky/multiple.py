@@ -702,8 +702,10 @@ class _Compact:
 
 
 def _compact(field: _Field, mc: _March):
-    """Keep what later orders need of a node march (about 1/3 of its memory), or the
-    march itself where no compiled kernel is available."""
+    """Keep what later orders need of a node march — the located samples with non-zero
+    weight (about half of the batch; the rest pads the shorter rays) and their float32
+    weights, about 1/6 of the march's memory — or the march itself where no compiled
+    kernel is available."""
     if not _have_kernel():
         return mc
     N, M = mc.h.shape
