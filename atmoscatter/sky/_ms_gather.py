@@ -133,48 +133,64 @@ def gather(table, h_nodes, th_nodes, mu_nodes, h, mus, mu, cphi, wt, *, threads=
     logt = log_table(table) if logt is None else logt
     if not use_kernel or N == 0 or not have_kernel():
         return gather_numpy(table, h_nodes, th_nodes, mu_nodes, h, mus, mu, cphi, wt, logt)
-    wt = np.ascontiguousarray(wt.reshape(N, M, C))
+    wt = wt.reshape(N, M, C)
     if threads <= 1 or N < 256:
-        return Located(table.shape[:4], h_nodes, th_nodes, mu_nodes, h, mus, mu, cphi).gather(logt, wt)
+        return Located(table.shape[:4], h_nodes, th_nodes, mu_nodes, h, mus, mu, cphi, wt).gather(logt)
     from concurrent.futures import ThreadPoolExecutor
 
     step = -(-N // threads)
 
     def part(a):
         sl = slice(a, min(a + step, N))
-        loc = Located(table.shape[:4], h_nodes, th_nodes, mu_nodes, h[sl], mus[sl], mu[sl], cphi[sl])
-        return loc.gather(logt, wt[sl])
+        loc = Located(table.shape[:4], h_nodes, th_nodes, mu_nodes, h[sl], mus[sl], mu[sl], cphi[sl],
+                      wt[sl])
+        return loc.gather(logt)
 
     with ThreadPoolExecutor(max_workers=threads) as pool:
         return np.concatenate(list(pool.map(part, range(0, N, step))), axis=0)
 
 
 class Located:
-    """Interpolation coordinates of a set of marched samples on one field grid, computed
-    once and reused for every order (the node rays of the field are gathered again for
-    each order).  ``base`` (N, M) int32 rows, ``frac`` (N, M, 4) float32 fractions."""
+    """Interpolation coordinates and weights of a set of marched samples on one field
+    grid, computed once and reused for every order (the node rays of the field are
+    gathered again for each order).
 
-    def __init__(self, shape_out, h_nodes, th_nodes, mu_nodes, h, mus, mu, cphi):
+    Only the samples whose weight ``wt`` (N, M, C) is non-zero in some channel are kept
+    (about half of a node-ray batch: the rays of a batch share one sample count, and
+    the shorter ones are padded with empty panels); they contribute exactly nothing to
+    the sums, so leaving them out changes no value.  The kept samples of ray ``n`` are
+    ``start[n] ≤ s < start[n + 1]``, in their order along the ray: ``base`` (K,) int32
+    rows, ``frac`` (K, 4) float32 fractions, ``wt`` (K, C) weights (dtype of the input).
+    """
+
+    def __init__(self, shape_out, h_nodes, th_nodes, mu_nodes, h, mus, mu, cphi, wt):
         n_h, n_s, n_mu, n_phi = shape_out
         self.shape_out = shape_out
         self.th_nodes = np.ascontiguousarray(th_nodes, dtype=np.float64)
         N, M = h.shape
-        base = np.empty((N, M), dtype=np.int64)
-        frac = np.empty((N, M, 4))
-        args = [np.ascontiguousarray(a, dtype=np.float64)
-                for a in (h_nodes, th_nodes, mu_nodes, h, mus, mu, cphi)]
-        _kernels()["locate_rows"](n_s, n_mu, n_phi, *args, base, frac)
-        self.base = base.astype(np.int32)
-        self.frac = frac.astype(np.float32)
+        wt = np.asarray(wt).reshape(N, M, -1)
+        keep = np.any(wt != 0, axis=-1)
+        index = np.flatnonzero(keep)
+        self.start = np.zeros(N + 1, dtype=np.int64)
+        np.cumsum(np.count_nonzero(keep, axis=1), out=self.start[1:])
+        K = index.size
+        base = np.empty((K, 1), dtype=np.int64)
+        frac = np.empty((K, 1, 4))
+        nodes = [np.ascontiguousarray(a, dtype=np.float64) for a in (h_nodes, th_nodes, mu_nodes)]
+        samples = [np.ascontiguousarray(np.asarray(a, dtype=np.float64).reshape(-1)[index]).reshape(K, 1)
+                   for a in (h, mus, mu, cphi)]
+        _kernels()["locate_rows"](n_s, n_mu, n_phi, *nodes, *samples, base, frac)
+        self.base = base.reshape(K).astype(np.int32)
+        self.frac = frac.reshape(K, 4).astype(np.float32)
+        self.wt = np.ascontiguousarray(wt.reshape(N * M, -1)[index])
 
-    def gather(self, logt, wt):
+    def gather(self, logt):
         """``Σ_m wt[n, m, c] exp(log S_c(sample))`` → (N, C) for the log table ``logt``
         (*shape_out, C) of :func:`log_table`."""
         n_h, n_s, n_mu, n_phi = self.shape_out
         C = logt.shape[-1]
         flat = np.ascontiguousarray(logt, dtype=np.float64).reshape(-1, C)
-        N, M = self.base.shape
-        out = np.empty((N, C))
-        _kernels()["gather_log"](flat, n_s, n_mu, n_phi, self.th_nodes, self.base, self.frac,
-                                 wt.reshape(N, M, C), out)
+        out = np.empty((self.start.size - 1, C))
+        _kernels()["gather_log"](flat, n_s, n_mu, n_phi, self.th_nodes, self.start, self.base,
+                                 self.frac, self.wt, out)
         return out

@@ -57,52 +57,88 @@ def _lagrange4(x0, x1, x2, x3, x):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
-def _gather_log(logflat, n_s, n_mu, n_phi, th_nodes, base, frac, wt, out):  # pragma: no cover
-    """``out[n, c] = Σ_s wt[n, s, c] exp(interpolated log S_c)``: multilinear in altitude,
-    μ and φ and cubic (4-point Lagrange) in θ_s, all on ``log S`` (``logflat``)."""
+def _corner_weights(n_s, d_h, d_s, n_phi, th_nodes, b, fi, fj, fk, fm, rows, u0, u1):  # pragma: no cover
+    """The 16 (altitude, θ_s, μ) rows of one sample's interpolation stencil and their
+    weights for the lower (``u0``) and upper (``u1``) azimuth node: multilinear in
+    altitude, μ and φ, cubic (4-point Lagrange, shifted inward at the grid's ends) in
+    θ_s.  ``b`` is the flat row of the stencil's (0, 0, 0, 0) corner."""
+    j = (b // d_s) % n_s
+    j0 = j - 1
+    if j0 < 0:
+        j0 = 0
+    if j0 > n_s - 4:
+        j0 = n_s - 4
+    x = th_nodes[j] + fj * (th_nodes[j + 1] - th_nodes[j])
+    l0, l1, l2, l3 = _lagrange4(th_nodes[j0], th_nodes[j0 + 1], th_nodes[j0 + 2],
+                                th_nodes[j0 + 3], x)
+    bb = b + (j0 - j) * d_s
+    r = 0
+    for di in range(2):
+        wi = fi if di == 1 else 1.0 - fi
+        for dk in range(2):
+            wk = fk if dk == 1 else 1.0 - fk
+            w = wi * wk
+            w0 = w * (1.0 - fm)
+            w1 = w * fm
+            b0 = bb + di * d_h + dk * n_phi
+            for q in range(4):
+                lq = l0 if q == 0 else (l1 if q == 1 else (l2 if q == 2 else l3))
+                rows[r] = b0 + q * d_s
+                u0[r] = w0 * lq
+                u1[r] = w1 * lq
+                r += 1
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _gather_log(logflat, n_s, n_mu, n_phi, th_nodes, start, base, frac, wt, out):  # pragma: no cover
+    """``out[n, c] = Σ_s wt[s, c] exp(interpolated log S_c)`` over the samples
+    ``start[n] ≤ s < start[n + 1]`` of ray ``n`` (packed: samples whose weight is zero in
+    every channel are not stored, they add exactly nothing); interpolation of
+    :func:`_corner_weights` on ``log S`` (``logflat``, rows × channels).
+
+    The channels are summed in blocks of four with the accumulators in registers (the
+    same operations in the same order as one channel at a time, so the result does not
+    depend on the blocking)."""
     C = logflat.shape[1]
-    N, M = base.shape
-    acc = np.empty(C)
+    C4 = C - C % 4
+    N = start.shape[0] - 1
     d_h = n_s * n_mu * n_phi
     d_s = n_mu * n_phi
+    u0 = np.empty(16)
+    u1 = np.empty(16)
+    rows = np.empty(16, dtype=np.int64)
+    ex = np.empty(C)
     for n in range(N):
         for c in range(C):
             out[n, c] = 0.0
-        for s in range(M):
-            b = base[n, s]
-            fi = frac[n, s, 0]
-            fj = frac[n, s, 1]
-            fk = frac[n, s, 2]
-            fm = frac[n, s, 3]
-            j = (b // d_s) % n_s
-            j0 = j - 1
-            if j0 < 0:
-                j0 = 0
-            if j0 > n_s - 4:
-                j0 = n_s - 4
-            x = th_nodes[j] + fj * (th_nodes[j + 1] - th_nodes[j])
-            l0, l1, l2, l3 = _lagrange4(th_nodes[j0], th_nodes[j0 + 1], th_nodes[j0 + 2],
-                                        th_nodes[j0 + 3], x)
-            bb = b + (j0 - j) * d_s
+        for s in range(start[n], start[n + 1]):
+            _corner_weights(n_s, d_h, d_s, n_phi, th_nodes, base[s], frac[s, 0], frac[s, 1],
+                            frac[s, 2], frac[s, 3], rows, u0, u1)
+            for cb in range(0, C4, 4):
+                a0 = 0.0
+                a1 = 0.0
+                a2 = 0.0
+                a3 = 0.0
+                for r in range(16):
+                    p = rows[r]
+                    v0 = u0[r]
+                    v1 = u1[r]
+                    a0 += logflat[p, cb] * v0 + logflat[p + 1, cb] * v1
+                    a1 += logflat[p, cb + 1] * v0 + logflat[p + 1, cb + 1] * v1
+                    a2 += logflat[p, cb + 2] * v0 + logflat[p + 1, cb + 2] * v1
+                    a3 += logflat[p, cb + 3] * v0 + logflat[p + 1, cb + 3] * v1
+                ex[cb] = a0
+                ex[cb + 1] = a1
+                ex[cb + 2] = a2
+                ex[cb + 3] = a3
+            for c in range(C4, C):
+                a = 0.0
+                for r in range(16):
+                    p = rows[r]
+                    a += logflat[p, c] * u0[r] + logflat[p + 1, c] * u1[r]
+                ex[c] = a
             for c in range(C):
-                acc[c] = 0.0
-            for di in range(2):
-                wi = fi if di == 1 else 1.0 - fi
-                for dk in range(2):
-                    wk = fk if dk == 1 else 1.0 - fk
-                    w = wi * wk
-                    w0 = w * (1.0 - fm)
-                    w1 = w * fm
-                    b0 = bb + di * d_h + dk * n_phi
-                    for q in range(4):
-                        lq = l0 if q == 0 else (l1 if q == 1 else (l2 if q == 2 else l3))
-                        bq = b0 + q * d_s
-                        u0 = w0 * lq
-                        u1 = w1 * lq
-                        for c in range(C):
-                            acc[c] += logflat[bq, c] * u0 + logflat[bq + 1, c] * u1
-            for c in range(C):
-                out[n, c] += wt[n, s, c] * np.exp(acc[c])
+                out[n, c] += wt[s, c] * np.exp(ex[c])
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")

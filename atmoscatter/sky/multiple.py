@@ -261,12 +261,12 @@ def _march(atm: qd.PreparedAtmosphere, r0: float, v: np.ndarray, s: np.ndarray, 
         r = atm.density(g, h)
         rho.append(r)
         cum, total = qd.cumulative_panel_integral(plen, r.reshape(n, npan, q), q)
-        tau += cum[..., None] * atm.extinction[g]
+        tau += np.multiply.outer(cum, atm.extinction[g])
         tau_end += total[:, None] * atm.extinction[g]
-    trans = np.exp(-tau)
+    trans = np.exp(np.negative(tau, out=tau))
     wt = np.empty((n, sigma.shape[1], nsc, nwl))
     for i, (g, beta, _) in enumerate(atm.scatterers):
-        wt[:, :, i, :] = (weights * rho[g])[..., None] * trans * beta
+        np.multiply((weights * rho[g])[..., None] * trans, beta, out=wt[:, :, i, :])
     rr = np.sqrt(b.p2[:, None] + sigma * sigma)
     mu = np.clip(sigma / rr, -1.0, 1.0)
     t = sigma - b.s0[:, None]
@@ -422,10 +422,9 @@ class _Field:
         nphi = self.grid.n_phi
         m_full = np.arange(2 * (nphi - 1))
         phi_full = np.pi * m_full / (nphi - 1)
-        fold = np.where(m_full <= nphi - 1, m_full, 2 * (nphi - 1) - m_full)
         d_out = self.directions(self.mu_out)
-        target = (np.arange(self.grid.n_mu)[:, None] * nphi + fold[None, :]).ravel()
-        n_dir = self.grid.n_mu * nphi
+        n_mu = self.grid.n_mu
+        n_dir = n_mu * nphi
         cache = {}
         out = []
         for mu_q, w_q in zip(self.mu_q, self.mu_wq, strict=True):
@@ -440,9 +439,12 @@ class _Field:
                 for _, _, phase in self.atm.scatterers:
                     p = np.asarray(phase(cos), dtype=float) * wfull[None, :]
                     p /= np.sum(p, axis=1, keepdims=True)
-                    folded = np.zeros((d_out.shape[0], n_dir))
-                    np.add.at(folded.T, target, p.T)
-                    per.append(folded)
+                    # fold φ and 2π − φ onto the half circle (the sums np.add.at over
+                    # ``target`` would form, in the same order)
+                    p = p.reshape(-1, n_mu, 2 * (nphi - 1))
+                    folded = p[:, :, :nphi].copy()
+                    folded[:, :, 1 : nphi - 1] += p[:, :, : nphi - 1 : -1]
+                    per.append(folded.reshape(-1, n_dir))
                 cache[key] = np.asarray(per)
             out.append(cache[key])
         return np.asarray(out)
@@ -560,7 +562,12 @@ class _FieldState:
             # Σ_m Σ_i w T p_i, as (N, M, nwl) products then a BLAS-free sum over the
             # samples (a three-operand einsum here is several times slower)
             wp = np.einsum("nmiw,ni->nmw", mc.wt, P, optimize=True)
-            path = np.einsum("nmw,nmw->nw", wp, sun_t(mc.h, mc.mus))
+            # the sun's transmittance where a sample has weight (the rest of the (N, M)
+            # batch is padding of shorter rays: 0 there, as its product with wp already was)
+            keep = np.any(wp != 0, axis=-1)
+            tsun = np.zeros_like(wp)
+            tsun[keep] = sun_t(mc.h[keep], mc.mus[keep])
+            path = np.einsum("nmw,nmw->nw", wp, tsun)
             if albedo > 0:
                 e0 = np.maximum(mc.mus_end, 0.0)[:, None] * sun_t(np.zeros_like(mc.mus_end),
                                                                    mc.mus_end)
@@ -605,7 +612,7 @@ class _FieldState:
                 path = _gather(f, mc, S, logt=logS)
             else:
                 nsc, nwl = S.shape[-2:]
-                path = mc.loc.gather(logS, mc.wt).reshape(-1, nsc, nwl).sum(axis=1)
+                path = mc.loc.gather(logS).reshape(-1, nsc, nwl).sum(axis=1)
             if E is not None:
                 e = _interp_e(f, E, mc.mus_end)
                 path += np.where(mc.ground[:, None], mc.t_end * self.albedo / np.pi * e, 0.0)
@@ -681,25 +688,26 @@ class _FieldState:
 
 @dataclass
 class _Compact:
-    """A node ray set kept between orders: located samples and float32 weights."""
+    """A node ray set kept between orders: located samples with their float32 weights."""
 
-    loc: object  # _ms_gather.Located
-    wt: np.ndarray  # (N, M, n_sc * nwl) float32
+    loc: object  # _ms_gather.Located (holds the packed (K, n_sc * nwl) float32 weights)
     ground: np.ndarray
     t_end: np.ndarray
     mus_end: np.ndarray
 
 
 def _compact(field: _Field, mc: _March):
-    """Keep what later orders need of a node march (about 1/3 of its memory), or the
-    march itself where no compiled kernel is available."""
+    """Keep what later orders need of a node march — the located samples with non-zero
+    weight (about half of the batch; the rest pads the shorter rays) and their float32
+    weights, about 1/6 of the march's memory — or the march itself where no compiled
+    kernel is available."""
     if not _have_kernel():
         return mc
-    loc = _Located(field.shape_out, field.h_nodes, field.ths, field.mu_out,
-                   mc.h, mc.mus, mc.mu, mc.cphi)
     N, M = mc.h.shape
     wt = np.ascontiguousarray(mc.wt.reshape(N, M, -1), dtype=np.float32)
-    return _Compact(loc, wt, mc.ground, mc.t_end, mc.mus_end)
+    loc = _Located(field.shape_out, field.h_nodes, field.ths, field.mu_out,
+                   mc.h, mc.mus, mc.mu, mc.cphi, wt)
+    return _Compact(loc, mc.ground, mc.t_end, mc.mus_end)
 
 
 def _run_cells(fn, cells, stage: str = ""):
