@@ -62,6 +62,12 @@ Accuracy (measured, never assumed): against the published DISORT test problems
 gives error against run time for each resolution knob).  ``scripts/ms_reference_check.py``
 prints the comparison tables.
 
+Why one module: the field build is one indivisible algorithm — the march, the sun's
+transmittance table, the field, the gather and the order state all share the grid and the
+prepared atmosphere at every step, and splitting them would only spread one recursion over
+several files; its compiled kernels (:mod:`._ms_gather`, :mod:`._ms_kernels`), the shared
+quadratures (:mod:`._quadrature`) and the sky table (:mod:`._sky_table`) live apart.
+
 References
 ----------
 * Preetham, A. J. Modeling skylight and aerial perspective (seed 004), ``I^{i+1}(ω)``.
