@@ -18,7 +18,7 @@ import pytest
 
 import atmoscatter as ac
 from atmoscatter.models import _pct, ms_accuracy, physical_adapter, register_model, unregister_model
-from atmoscatter.render import _error_estimate
+from atmoscatter.render.evaluate import _error_estimate
 from atmoscatter.scene import Scene, plan
 
 SUN_REGIMES = ("above_10", "0_to_10", "0_to_-6", "-6_to_-12", "below_-12")

@@ -23,7 +23,7 @@ from atmoscatter.models import (
 from atmoscatter.scene import Scene, plan
 from atmoscatter.solar import solar_spectrum_table
 
-render_mod = importlib.import_module("atmoscatter.render")
+render_mod = importlib.import_module("atmoscatter.render.evaluate")
 CALLS = []
 
 

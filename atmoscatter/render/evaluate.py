@@ -46,12 +46,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import __version__
-from ._validate import check_count
-from .directions import ArrayDirections, DirectionSet, direction_set, mirror_pairs
-from .models import get_model
-from .scene import Plan, Scene, as_scene
-from .scene import plan as make_plan
+from .. import __version__
+from .._validate import check_count
+from ..directions import ArrayDirections, DirectionSet, direction_set, mirror_pairs
+from ..models import get_model
+from ..scene import Plan, Scene, as_scene
+from ..scene import plan as make_plan
 
 __all__ = ["SkyImage", "render", "render_batches", "sun_disc_radiance", "LIMB_DARKENING_U",
            "GamutWarning", "GAMUT_WARN_FRACTION"]
@@ -134,7 +134,7 @@ class SkyImage:
             return self.luminance_only
         if self.xyz is not None:
             return self.xyz[..., 1]
-        from .colour import XYZ_to_linear_rgb  # noqa: PLC0415
+        from ..colour import XYZ_to_linear_rgb  # noqa: PLC0415
 
         # exact inverse of the forward matrix used by render()
         m = np.linalg.inv(XYZ_to_linear_rgb(np.eye(3), self.scene.colourspace))
@@ -183,9 +183,9 @@ class SkyImage:
 # ----------------------------------------------------------------------------
 def _transmittance(scene: Scene, plan: Plan, wavelengths):
     """Direct-beam transmittance toward the sun, from the observer (per wavelength)."""
-    from .geometry import ray_hits_ground  # noqa: PLC0415
-    from .models import _build_atmosphere  # noqa: PLC0415
-    from .optical_length import optical_length  # noqa: PLC0415
+    from ..geometry import ray_hits_ground  # noqa: PLC0415
+    from ..models import _build_atmosphere  # noqa: PLC0415
+    from ..optical_length import optical_length  # noqa: PLC0415
 
     wavelengths = np.asarray(wavelengths, dtype=float)
     custom = plan.atmosphere
@@ -246,9 +246,9 @@ def sun_disc_radiance(scene: Scene, plan: Plan | None = None):
     ValueError
         If ``plan`` is None and :func:`atmoscatter.plan` rejects ``scene``.
     """
-    from .colour import K_M, cmf_weights  # noqa: PLC0415
-    from .models import FINE_GRID, _band_etr  # noqa: PLC0415
-    from .solar import SUN_ANGULAR_RADIUS  # noqa: PLC0415
+    from ..colour import K_M, cmf_weights  # noqa: PLC0415
+    from ..models import FINE_GRID, _band_etr  # noqa: PLC0415
+    from ..solar import SUN_ANGULAR_RADIUS  # noqa: PLC0415
 
     p = make_plan(scene) if plan is None else plan
     alpha = SUN_ANGULAR_RADIUS / p.distance_au
@@ -548,7 +548,7 @@ def render(scene: Scene | None = None, *, directions=None, atmosphere=None,
     rgb = np.empty((n, 3), dtype=np.float32) if chroma_rgb else None
     out_of_gamut = []  # (start, stop) of the batches whose raw RGB has a channel < 0
     if chroma_rgb:
-        from .colour import XYZ_to_linear_rgb  # noqa: PLC0415
+        from ..colour import XYZ_to_linear_rgb  # noqa: PLC0415
 
         m_rgb = XYZ_to_linear_rgb(np.eye(3), scene.colourspace)  # rows: RGB of X, Y, Z
 
@@ -633,7 +633,7 @@ def _apply_gamut_policy(rgb, ranges, scene, workers) -> dict:
     ``atmoscatter:gamut_*`` metadata and warn (:class:`GamutWarning`) when the policy changed
     more than :data:`GAMUT_WARN_FRACTION` of the pixels.  Only batches that hold a negative
     channel are visited, so an in-gamut render pays one ``min`` per batch."""
-    from .colour import _gamut_map_inplace, _luminance_coefficients  # noqa: PLC0415
+    from ..colour import _gamut_map_inplace, _luminance_coefficients  # noqa: PLC0415
 
     policy = scene.gamut
     lum = _luminance_coefficients(scene.colourspace)
