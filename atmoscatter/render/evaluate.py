@@ -434,11 +434,12 @@ def render(scene: Scene | None = None, *, directions=None, atmosphere=None,
     n = dset.size
     chroma_rgb = ctx.key == "XYZ"
     keep_xyz = "XYZ" in p.layers
-    # only the layers asked for are stored (float32)
-    vals = np.empty((n, ctx.nval), dtype=np.float32) if (keep_xyz or not chroma_rgb) else None
-    spec = np.empty((n, ctx.nspec), dtype=np.float32) if ctx.nspec else None
-    alpha = np.empty(n, dtype=np.float32)
-    rgb = np.empty((n, 3), dtype=np.float32) if chroma_rgb else None
+    # only the layers asked for are stored (float32), planar: one contiguous plane per
+    # channel, filled batch by batch (see SkyImage); nothing else is of the map's size
+    vals = np.empty((ctx.nval, n), dtype=np.float32) if (keep_xyz or not chroma_rgb) else None
+    spec = np.empty((ctx.nspec, n), dtype=np.float32) if ctx.nspec else None
+    evaluated = np.empty(n, dtype=bool)
+    rgb = np.empty((3, n), dtype=np.float32) if chroma_rgb else None
     out_of_gamut = []  # (start, stop) of the batches whose raw RGB has a channel < 0
     if chroma_rgb:
         from ..colour import XYZ_to_linear_rgb  # noqa: PLC0415
@@ -450,15 +451,15 @@ def render(scene: Scene | None = None, *, directions=None, atmosphere=None,
         b = ctx.batch(s, e)
         v = b["values"]
         if vals is not None:
-            vals[s:e] = v
+            vals[:, s:e] = v.T
         if rgb is not None:
-            np.matmul(v, m_rgb, out=rgb[s:e], casting="same_kind")
+            rgb[:, s:e] = (v @ m_rgb).T
             # (not ``min() < 0``: a NaN would hide the negative values of the batch)
-            if e > s and not rgb[s:e].min() >= 0.0:  # the policy is applied after the sun disc
+            if e > s and not rgb[:, s:e].min() >= 0.0:  # the policy is applied after the disc
                 out_of_gamut.append((s, e))
         if spec is not None:
-            spec[s:e] = b["spectral"]
-        alpha[s:e] = 1.0 if b["alpha"] is None else b["alpha"]
+            spec[:, s:e] = b["spectral"].T
+        evaluated[s:e] = True if b["alpha"] is None else b["alpha"]
 
     bounds = dset.batches(p.batch_size)
     nw = _default_workers() if workers is None else check_count(workers, "workers")
@@ -486,30 +487,30 @@ def render(scene: Scene | None = None, *, directions=None, atmosphere=None,
             scale = omega_sun * (1.0 - LIMB_DARKENING_U / 3.0) / omega_pix
             add = xyz_c * scale
             if vals is not None:
-                vals[i] += add.astype(np.float32)
+                vals[:, i] += add.astype(np.float32)
             if rgb is not None:
-                rgb[i] += (add @ m_rgb).astype(np.float32)
-                if not rgb[i].min() >= 0.0 and not any(a <= i < b for a, b in out_of_gamut):
+                rgb[:, i] += (add @ m_rgb).astype(np.float32)
+                if not rgb[:, i].min() >= 0.0 and not any(a <= i < b for a, b in out_of_gamut):
                     out_of_gamut.append((i, i + 1))
             if spec is not None:
-                spec[i] += (ctx.disc_spec * scale).astype(np.float32)
+                spec[:, i] += (ctx.disc_spec * scale).astype(np.float32)
 
     shape = dset.shape
-    img = SkyImage(scene=scene, plan=p, directions_set=dset,
-                   wavelengths=np.asarray(p.wavelengths) if p.wavelengths else None)
+    planes = {}
     if rgb is not None:
-        img.rgb = rgb.reshape(shape + (3,))
+        planes["rgb"] = rgb.reshape((3,) + shape)
     if keep_xyz:
-        img.xyz = vals.reshape(shape + (3,))
-    if ctx.key == "Y":
-        img.luminance_only = vals.reshape(shape)
+        planes["xyz"] = vals.reshape((3,) + shape)
     if spec is not None:
-        img.spectral = spec.reshape(shape + (ctx.nspec,))
-    img.alpha = alpha.reshape(shape)
-    img.metadata = _metadata(scene, p, dset, ctx.adapter)
-    if rgb is not None:
-        img.metadata.update(_apply_gamut_policy(rgb, out_of_gamut, scene, nw))
-    return img
+        planes["spectral"] = spec.reshape((ctx.nspec,) + shape)
+    md = _metadata(scene, p, dset, ctx.adapter)
+    if rgb is not None:  # (n, 3) view of the planes: the policy changes them in place
+        md.update(_apply_gamut_policy(rgb.T, out_of_gamut, scene, nw))
+    return SkyImage._from_planes(
+        scene, p, dset, planes=planes,
+        luminance_only=vals.reshape(shape) if ctx.key == "Y" else None,
+        alpha_mask=evaluated.reshape(shape), metadata=md,
+        wavelengths=np.asarray(p.wavelengths) if p.wavelengths else None)
 
 
 _GAMUT_DESCRIPTIONS = {
