@@ -120,27 +120,32 @@ def write_exr(path, image, *, precision: str | None = None, compression: str = "
         return np.ascontiguousarray(a)
 
     def conv(a):
-        a = np.asarray(a, dtype=np.float32)
-        if dtype is np.float16:
-            a = np.minimum(a, np.float32(65504.0))
-        return as_image(a.astype(dtype))
+        # A plane of the image (C-contiguous float32: SkyImage stores its layers planar) is
+        # handed to OpenEXR as it is, without a copy; half floats are converted straight into
+        # a float16 plane (no float32 temporary of the map's size).
+        if dtype is np.float32:
+            return as_image(np.asarray(a, dtype=np.float32))
+        out = np.empty(np.shape(a), dtype=np.float16)
+        np.minimum(a, np.float32(65504.0), out=out, casting="same_kind",
+                   signature=(np.float32, np.float32, np.float32))
+        return as_image(out)
 
     channels = {}
     if image.rgb is not None:
-        for i, c in enumerate("RGB"):
-            channels[c] = conv(image.rgb[..., i])
+        for c, plane in zip("RGB", image.planes("rgb"), strict=True):
+            channels[c] = conv(plane)
         if image.scene.alpha:
-            channels["A"] = conv(image.alpha)
+            channels["A"] = as_image(image._alpha_as(dtype))
     if image.xyz is not None:
-        for i, c in enumerate("XYZ"):
-            channels[f"XYZ.{c}"] = conv(image.xyz[..., i])
+        for c, plane in zip("XYZ", image.planes("xyz"), strict=True):
+            channels[f"XYZ.{c}"] = conv(plane)
     if image.luminance_only is not None:
         channels["Y"] = conv(image.luminance_only)
         if image.scene.alpha:
-            channels["A"] = conv(image.alpha)
+            channels["A"] = as_image(image._alpha_as(dtype))
     if image.spectral is not None:
-        for i, wl in enumerate(image.wavelengths):
-            channels[spectral_channel_name(wl)] = conv(image.spectral[..., i])
+        for wl, plane in zip(image.wavelengths, image.planes("spectral"), strict=True):
+            channels[spectral_channel_name(wl)] = conv(plane)
     if dome:
         d = image.directions.reshape(-1, 3)
         for i, c in enumerate("XYZ"):

@@ -42,11 +42,11 @@ from .evaluate import (
     GAMUT_WARN_FRACTION,
     LIMB_DARKENING_U,
     GamutWarning,
-    SkyImage,
     render,
     render_batches,
     sun_disc_radiance,
 )
+from .image import SkyImage
 
 # Exactly the union of the modules' ``__all__``: ``atmoscatter.__all__`` is built from the
 # modules themselves, so tests/test_startup.py fails if a name is missing here.

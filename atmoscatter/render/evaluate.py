@@ -1,4 +1,4 @@
-"""The per-vertex batch evaluator: Scene → SkyImage.
+"""The per-vertex batch evaluator: Scene → SkyImage (:mod:`atmoscatter.render.image`).
 
 Public objects
 --------------
@@ -9,9 +9,6 @@ Public objects
 :func:`render_batches`
     The same evaluation as a generator of ``(start, stop, values)`` batches,
     for streaming very large maps without holding them.
-:class:`SkyImage`
-    Directions, values (linear RGB, and optionally XYZ, luminance, spectral
-    radiance, alpha) and metadata; converts to numpy and xarray.
 :func:`sun_disc_radiance`
     Transmitted, limb-darkened radiance of the solar disc (XYZ [cd m⁻²]).
 
@@ -42,7 +39,6 @@ import os
 import threading
 import warnings
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -50,12 +46,13 @@ from .. import __version__
 from .._validate import check_count
 from ..scene import Scene, as_scene
 from .directions import ArrayDirections, DirectionSet, direction_set, mirror_pairs
+from .image import SkyImage
 from .models import get_model
 from .plan import Plan
 from .plan import plan as make_plan
 
-__all__ = ["SkyImage", "render", "render_batches", "sun_disc_radiance", "LIMB_DARKENING_U",
-           "GamutWarning", "GAMUT_WARN_FRACTION"]
+__all__ = ["render", "render_batches", "sun_disc_radiance", "LIMB_DARKENING_U", "GamutWarning",
+           "GAMUT_WARN_FRACTION"]
 
 #: Linear limb-darkening coefficient u in ``I(μ)/I(1) = 1 − u (1 − μ)``: the
 #: Eddington approximation for a grey atmosphere, ``I(μ) ∝ (2 + 3μ)/5`` (e.g.
@@ -73,110 +70,6 @@ class GamutWarning(UserWarning):
     were mapped or clipped (the scene's ``gamut`` policy); XYZ and spectral layers are exact."""
 
 
-@dataclass
-class SkyImage:
-    """A rendered sky.
-
-    Attributes
-    ----------
-    scene : Scene
-    plan : Plan
-    directions_set : DirectionSet
-        Where each pixel/vertex looks (see :attr:`directions`).
-    rgb : ndarray or None
-        Linear RGB in ``scene.colourspace`` [cd m⁻²], shape ``shape + (3,)``, after the
-        scene's ``gamut`` policy (default: no negative channel; see the module notes).
-    xyz : ndarray or None
-        CIE XYZ [cd m⁻²] when ``output`` is ``xyz``.
-    luminance_only : ndarray or None
-        Y [cd m⁻²] when ``output`` is ``luminance``.
-    spectral : ndarray or None
-        Spectral radiance [W m⁻² sr⁻¹ nm⁻¹] at :attr:`wavelengths`.
-    alpha : ndarray
-        1 where the sky was evaluated, 0 for ground fill and outside the map.
-    metadata : dict of str
-        Provenance written to the EXR header.
-    """
-
-    scene: Scene
-    plan: Plan
-    directions_set: DirectionSet
-    rgb: np.ndarray | None = None
-    xyz: np.ndarray | None = None
-    luminance_only: np.ndarray | None = None
-    spectral: np.ndarray | None = None
-    wavelengths: np.ndarray | None = None
-    alpha: np.ndarray | None = None
-    metadata: dict = field(default_factory=dict)
-
-    @property
-    def shape(self) -> tuple:
-        """Image shape (rows, columns), or (vertices,) for a dome."""
-        return self.directions_set.shape
-
-    @property
-    def projection(self) -> str:
-        return self.directions_set.kind
-
-    @property
-    def directions(self) -> np.ndarray:
-        """Unit view directions, shape ``shape + (3,)`` (computed on demand)."""
-        return self.directions_set.all_directions()
-
-    @property
-    def faces(self):
-        """Triangles (m, 3) of a dome mesh, else None."""
-        return getattr(self.directions_set, "faces", None)
-
-    @property
-    def luminance(self) -> np.ndarray:
-        """Luminance Y [cd m⁻²], shape ``shape``."""
-        if self.luminance_only is not None:
-            return self.luminance_only
-        if self.xyz is not None:
-            return self.xyz[..., 1]
-        from ..colour import XYZ_to_linear_rgb  # noqa: PLC0415
-
-        # exact inverse of the forward matrix used by render()
-        m = np.linalg.inv(XYZ_to_linear_rgb(np.eye(3), self.scene.colourspace))
-        return (self.rgb.astype(np.float64) @ m[:, 1]).astype(np.float32)
-
-    def to_numpy(self) -> dict:
-        """The layers as a dict of numpy arrays (``rgb``, ``xyz``, ``luminance``, …)."""
-        out = {"directions": self.directions, "luminance": self.luminance}
-        for name in ("rgb", "xyz", "spectral", "alpha", "wavelengths"):
-            v = getattr(self, name)
-            if v is not None:
-                out[name] = v
-        if self.faces is not None:
-            out["faces"] = self.faces
-        return out
-
-    def to_xarray(self):
-        """An :class:`xarray.Dataset` of the layers (needs xarray installed)."""
-        try:
-            import xarray as xr  # noqa: PLC0415
-        except ImportError as exc:  # pragma: no cover
-            raise ImportError("SkyImage.to_xarray needs xarray: pip install xarray") from exc
-        dims = ("row", "column") if len(self.shape) == 2 else ("vertex",)
-        data = {"luminance": (dims, self.luminance, {"units": "cd m-2"}),
-                "direction": (dims + ("xyz",), self.directions,
-                              {"frame": "x=east, y=north, z=up"})}
-        coords = {}
-        if self.rgb is not None:
-            data["rgb"] = (dims + ("channel",), self.rgb,
-                           {"units": "cd m-2", "colourspace": self.scene.colourspace})
-            coords["channel"] = ["R", "G", "B"]
-        if self.xyz is not None:
-            data["XYZ"] = (dims + ("cie",), self.xyz, {"units": "cd m-2"})
-            coords["cie"] = ["X", "Y", "Z"]
-        if self.spectral is not None:
-            data["spectral"] = (dims + ("wavelength",), self.spectral,
-                                {"units": "W m-2 sr-1 nm-1"})
-            coords["wavelength"] = self.wavelengths
-        if self.alpha is not None:
-            data["alpha"] = (dims, self.alpha)
-        return xr.Dataset(data, coords=coords, attrs=dict(self.metadata))
 
 
 # ----------------------------------------------------------------------------
@@ -542,11 +435,12 @@ def render(scene: Scene | None = None, *, directions=None, atmosphere=None,
     n = dset.size
     chroma_rgb = ctx.key == "XYZ"
     keep_xyz = "XYZ" in p.layers
-    # only the layers asked for are stored (float32)
-    vals = np.empty((n, ctx.nval), dtype=np.float32) if (keep_xyz or not chroma_rgb) else None
-    spec = np.empty((n, ctx.nspec), dtype=np.float32) if ctx.nspec else None
-    alpha = np.empty(n, dtype=np.float32)
-    rgb = np.empty((n, 3), dtype=np.float32) if chroma_rgb else None
+    # only the layers asked for are stored (float32), planar: one contiguous plane per
+    # channel, filled batch by batch (see SkyImage); nothing else is of the map's size
+    vals = np.empty((ctx.nval, n), dtype=np.float32) if (keep_xyz or not chroma_rgb) else None
+    spec = np.empty((ctx.nspec, n), dtype=np.float32) if ctx.nspec else None
+    evaluated = np.empty(n, dtype=bool)
+    rgb = np.empty((3, n), dtype=np.float32) if chroma_rgb else None
     out_of_gamut = []  # (start, stop) of the batches whose raw RGB has a channel < 0
     if chroma_rgb:
         from ..colour import XYZ_to_linear_rgb  # noqa: PLC0415
@@ -558,15 +452,15 @@ def render(scene: Scene | None = None, *, directions=None, atmosphere=None,
         b = ctx.batch(s, e)
         v = b["values"]
         if vals is not None:
-            vals[s:e] = v
+            vals[:, s:e] = v.T
         if rgb is not None:
-            np.matmul(v, m_rgb, out=rgb[s:e], casting="same_kind")
+            rgb[:, s:e] = (v @ m_rgb).T
             # (not ``min() < 0``: a NaN would hide the negative values of the batch)
-            if e > s and not rgb[s:e].min() >= 0.0:  # the policy is applied after the sun disc
+            if e > s and not rgb[:, s:e].min() >= 0.0:  # the policy is applied after the disc
                 out_of_gamut.append((s, e))
         if spec is not None:
-            spec[s:e] = b["spectral"]
-        alpha[s:e] = 1.0 if b["alpha"] is None else b["alpha"]
+            spec[:, s:e] = b["spectral"].T
+        evaluated[s:e] = True if b["alpha"] is None else b["alpha"]
 
     bounds = dset.batches(p.batch_size)
     nw = _default_workers() if workers is None else check_count(workers, "workers")
@@ -594,30 +488,30 @@ def render(scene: Scene | None = None, *, directions=None, atmosphere=None,
             scale = omega_sun * (1.0 - LIMB_DARKENING_U / 3.0) / omega_pix
             add = xyz_c * scale
             if vals is not None:
-                vals[i] += add.astype(np.float32)
+                vals[:, i] += add.astype(np.float32)
             if rgb is not None:
-                rgb[i] += (add @ m_rgb).astype(np.float32)
-                if not rgb[i].min() >= 0.0 and not any(a <= i < b for a, b in out_of_gamut):
+                rgb[:, i] += (add @ m_rgb).astype(np.float32)
+                if not rgb[:, i].min() >= 0.0 and not any(a <= i < b for a, b in out_of_gamut):
                     out_of_gamut.append((i, i + 1))
             if spec is not None:
-                spec[i] += (ctx.disc_spec * scale).astype(np.float32)
+                spec[:, i] += (ctx.disc_spec * scale).astype(np.float32)
 
     shape = dset.shape
-    img = SkyImage(scene=scene, plan=p, directions_set=dset,
-                   wavelengths=np.asarray(p.wavelengths) if p.wavelengths else None)
+    planes = {}
     if rgb is not None:
-        img.rgb = rgb.reshape(shape + (3,))
+        planes["rgb"] = rgb.reshape((3,) + shape)
     if keep_xyz:
-        img.xyz = vals.reshape(shape + (3,))
-    if ctx.key == "Y":
-        img.luminance_only = vals.reshape(shape)
+        planes["xyz"] = vals.reshape((3,) + shape)
     if spec is not None:
-        img.spectral = spec.reshape(shape + (ctx.nspec,))
-    img.alpha = alpha.reshape(shape)
-    img.metadata = _metadata(scene, p, dset, ctx.adapter)
-    if rgb is not None:
-        img.metadata.update(_apply_gamut_policy(rgb, out_of_gamut, scene, nw))
-    return img
+        planes["spectral"] = spec.reshape((ctx.nspec,) + shape)
+    md = _metadata(scene, p, dset, ctx.adapter)
+    if rgb is not None:  # (n, 3) view of the planes: the policy changes them in place
+        md.update(_apply_gamut_policy(rgb.T, out_of_gamut, scene, nw))
+    return SkyImage._from_planes(
+        scene, p, dset, planes=planes,
+        luminance_only=vals.reshape(shape) if ctx.key == "Y" else None,
+        alpha_mask=evaluated.reshape(shape), metadata=md,
+        wavelengths=np.asarray(p.wavelengths) if p.wavelengths else None)
 
 
 _GAMUT_DESCRIPTIONS = {
