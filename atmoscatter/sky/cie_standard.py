@@ -49,7 +49,7 @@ Edges and validity
   ``e^{b/cos Z} → 0`` for the standard's b < 0, without division warnings).
 * Scaling by diffuse horizontal illuminance uses :func:`cie_standard_diffuse_ratio`, a
   Gauss–Legendre product rule split at the sun (relative error < 1e-8, checked against a
-  rule eight times finer in each direction).
+  rule four times finer in each direction).
 
 References
 ----------
