@@ -37,8 +37,8 @@ The chain
    point of 11 °C gives 2.004 cm).
 4. ``L(Z, γ) = D_v lv(Z, γ) / ∫ lv cos Z dΩ``, the integral by the quadrature of
    :mod:`atmoscatter.sky._hemisphere` with extra panel edges at Z = 80° and at the cos Z floor
-   (relative error < 1e-8 where lv > 0 over the whole sky; up to 6e-4 — measured worst case
-   5.6e-4 — where the floor at 0 below cuts the sky, bins 4 and 8 at Δ ≥ 0.45).
+   (relative error < 1e-8 where lv > 0 over the whole sky; < 1e-3 where the floor at 0
+   below cuts the sky, e.g. bins 4 and 8 at Δ ≥ 0.45; both tested).
 
 Failure modes and how they are handled (as published implementations do)
 -------------------------------------------------------------------------
@@ -557,7 +557,7 @@ extraterrestrial_normal_irradiance, low_delta_correction
     -------
     numpy.ndarray or float
         Luminance [cd m⁻²], ≥ 0; its horizontal integral equals the model's diffuse
-        horizontal illuminance to < 1e-8 relative (< 6e-4 where the floor at 0 applies).
+        horizontal illuminance to < 1e-8 relative (< 1e-3 where the floor at 0 applies).
     """
     z = as_float_array(view_zenith, "view_zenith")
     g = as_float_array(gamma, "gamma")
