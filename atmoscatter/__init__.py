@@ -28,6 +28,8 @@ from .sun import *  # noqa: F403
 # analytic skies
 from .sky.aerial import *  # noqa: F403
 from .sky.cie import *  # noqa: F403
+from .sky.cie_standard import *  # noqa: F403
+from .sky.perez_all_weather import *  # noqa: F403
 from .sky.perez import *  # noqa: F403
 from .sky.preetham import *  # noqa: F403
 # numerical scattering
@@ -46,9 +48,9 @@ from .compare import *  # noqa: F403
 #: The public names: exactly the union of the re-exported modules' ``__all__``.
 _REEXPORTED = ("atmosphere", "colour", "geometry", "optical_length", "phase", "presets",
                "profiles", "scattering", "solar", "standard_atmosphere", "sun", "sky.aerial",
-               "sky.cie", "sky.perez", "sky.preetham", "sky.single", "sky.multiple", "scene",
-               "render.plan", "render.directions", "render.dome", "render.models",
-               "render.analytic_adapters", "render.photometry", "render.physical_adapters",
-               "render.evaluate", "render.image", "exr", "preview", "batch", "integrals",
-               "compare")
+               "sky.cie", "sky.cie_standard", "sky.perez_all_weather", "sky.perez",
+               "sky.preetham", "sky.single", "sky.multiple", "scene", "render.plan",
+               "render.directions", "render.dome", "render.models", "render.analytic_adapters",
+               "render.photometry", "render.physical_adapters", "render.evaluate",
+               "render.image", "exr", "preview", "batch", "integrals", "compare")
 __all__ = sorted({n for m in _REEXPORTED for n in _sys.modules[f"{__name__}.{m}"].__all__})

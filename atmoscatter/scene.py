@@ -159,6 +159,19 @@ class Scene:
         until the lowest channel is 0 — luminance Y and hue kept), ``clip`` (negative
         channels set to 0) or ``none`` (raw values, negative light included).  See
         :func:`atmoscatter.rgb_into_gamut`; the render's counts go into the EXR header.
+    cie_type : int or None
+        ``model = "cie_standard"`` only: CIE standard general sky type 1–15 (ISO 15469 /
+        CIE S 011), scaled by ``zenith_luminance`` or ``diffuse_horizontal_illuminance``.
+    zenith_luminance : float or None
+        ``cie_standard``: zenith luminance ≥ 0 [cd m⁻²] (give this or the next).
+    diffuse_horizontal_illuminance : float or None
+        ``cie_standard``: diffuse horizontal illuminance ≥ 0 from the sky [lx].
+    direct_normal_irradiance, diffuse_horizontal_irradiance : float or None
+        ``model = "perez_all_weather"`` only (both required): measured direct normal and
+        diffuse horizontal irradiance ≥ 0 [W m⁻²], as in a weather file.
+    dew_point : float or None
+        ``perez_all_weather``: surface dew point in [−100, 60] °C for the precipitable water
+        of the luminous efficacy; ``None`` uses 2 cm of precipitable water.
     """
 
     name: str = "sky"
@@ -189,6 +202,12 @@ class Scene:
     symmetry: str = "auto"
     method: str | None = None
     gamut: str = "map"
+    cie_type: int | None = None
+    zenith_luminance: float | None = None
+    diffuse_horizontal_illuminance: float | None = None
+    direct_normal_irradiance: float | None = None
+    diffuse_horizontal_irradiance: float | None = None
+    dew_point: float | None = None
 
     # ------------------------------------------------------------------
     def __post_init__(self):
@@ -383,6 +402,7 @@ def _validate(s: Scene) -> None:
         _check(s.method in SINGLE_SCATTERING_METHODS,
                f"method={s.method!r} is not valid; choose one of "
                f"{sorted(SINGLE_SCATTERING_METHODS)}")
+    _validate_daylight(s)
     _check(1.0 <= s.wavelength_step <= 100.0,
            f"wavelength_step must be in [1, 100] nm, got {s.wavelength_step!r}")
     for name, options in (("projection", PROJECTIONS), ("output", OUTPUTS),
@@ -413,6 +433,47 @@ def _validate(s: Scene) -> None:
             f"colourspace={s.colourspace!r} is not valid; choose an RGB colourspace known "
             "to colour-science, e.g. 'sRGB', 'ITU-R BT.2020', 'ACEScg'"
         )
+
+
+#: Scene fields of the daylighting models, and the model each belongs to.
+DAYLIGHT_FIELDS = {
+    "cie_type": "cie_standard",
+    "zenith_luminance": "cie_standard",
+    "diffuse_horizontal_illuminance": "cie_standard",
+    "direct_normal_irradiance": "perez_all_weather",
+    "diffuse_horizontal_irradiance": "perez_all_weather",
+    "dew_point": "perez_all_weather",
+}
+
+
+def _validate_daylight(s: Scene) -> None:
+    """Fields of ``cie_standard`` / ``perez_all_weather``: present where needed, nowhere else."""
+    for name, model in DAYLIGHT_FIELDS.items():
+        v = getattr(s, name)
+        if v is None:
+            continue
+        _check(s.model == model, f"{name}={v!r} only applies to model={model!r}, not to "
+               f"model={s.model!r}")
+        _check(math.isfinite(v), f"scene field {name} must be finite, got {v!r}")
+    if s.model == "cie_standard":
+        _check(s.cie_type is not None, "model='cie_standard' needs cie_type (an integer 1-15)")
+        _check(1 <= s.cie_type <= 15, f"cie_type must be in [1, 15], got {s.cie_type!r}")
+        given = [n for n in ("zenith_luminance", "diffuse_horizontal_illuminance")
+                 if getattr(s, n) is not None]
+        _check(len(given) == 1, "model='cie_standard' needs exactly one of zenith_luminance "
+               f"[cd m^-2] and diffuse_horizontal_illuminance [lx], got {given or 'neither'}")
+        _check(getattr(s, given[0]) >= 0,
+               f"{given[0]} must be in [0, inf), got {getattr(s, given[0])!r}")
+    if s.model == "perez_all_weather":
+        for name in ("direct_normal_irradiance", "diffuse_horizontal_irradiance"):
+            v = getattr(s, name)
+            _check(v is not None, f"model='perez_all_weather' needs {name} [W m^-2]")
+            _check(v >= 0, f"{name} must be in [0, inf) W m^-2, got {v!r}")
+        _check(s.direct_normal_irradiance <= 1500.0, "direct_normal_irradiance must be in "
+               f"[0, 1500] W m^-2, got {s.direct_normal_irradiance!r}")
+        if s.dew_point is not None:
+            _check(-100.0 <= s.dew_point <= 60.0,
+                   f"dew_point must be in [-100, 60] degC, got {s.dew_point!r}")
 
 
 def _check_size(s: Scene) -> None:

@@ -36,6 +36,7 @@ from .directions import (
 from .dome import DomeDirections
 from .models import MODELS, ModelAdapter, get_model, register_model, unregister_model
 from .analytic_adapters import CIE_SKY_CHROMATICITY  # importing it registers Preetham, CIE
+from . import daylight_adapters  # noqa: F401  (registers the CIE standard and Perez skies)
 from .photometry import rgb_sampling_matrix
 from .physical_adapters import HOFFMAN_PREETHAM_HAZE_G, physical_adapter  # registers them
 from .evaluate import (
