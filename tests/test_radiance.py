@@ -19,7 +19,6 @@ What is comparable, and what differs by design (docs/daylighting.md):
 
 from __future__ import annotations
 
-import dataclasses
 import math
 import os
 import re
@@ -188,7 +187,7 @@ def test_compare_exr_against_gendaylit(tmp_path):
     ours = paw.perez_all_weather_relative_luminance(
         np.arccos(np.clip(dirs[..., 2], -1, 1)), _gamma(dirs, sun),
         *paw.perez_all_weather_coefficients(math.radians(90 - alt), eps, dlt))
-    ref_same = dataclasses.replace(ref, luminance_only=np.where(up, ours, 0.0).astype(np.float32))
+    ref_same = ref.replace(luminance_only=np.where(up, ours, 0.0).astype(np.float32))
     cmp_same = ac.compare_exr(path, scene, reference=ref_same, sun_exclusion_deg=1.0)
     summary = cmp_same.to_dict()
     assert summary["scaled_luminance_relative_error"]["max"] < 5e-3

@@ -701,3 +701,16 @@ def test_rgb_sampling_matrix_rejects_bad_wavelengths(samples, grid, match):
     """Before: NaN weights for a zero, negative or repeated wavelength."""
     with pytest.raises(ValueError, match=match):
         rgb_sampling_matrix(samples) if grid is None else rgb_sampling_matrix(samples, grid)
+
+
+def test_sky_image_replace_changes_one_layer_and_shares_the_rest():
+    """``SkyImage.replace`` (the former dataclasses.replace): new layer, others shared."""
+    img = ac.render(ac.Scene(width=16, height=8))
+    new_rgb = np.zeros_like(img.rgb)
+    other = img.replace(rgb=new_rgb, metadata={"k": "v"})
+    np.testing.assert_array_equal(other.rgb, new_rgb)
+    assert np.any(img.rgb != 0)  # the original is untouched
+    np.testing.assert_array_equal(other.alpha, img.alpha)
+    assert other.metadata == {"k": "v"} and img.metadata != {"k": "v"}
+    with pytest.raises(TypeError, match="unknown attribute"):
+        img.replace(colour=1)

@@ -98,6 +98,46 @@ class SkyImage:
         img._alpha = alpha_mask
         return img
 
+    _FIELDS = ("scene", "plan", "directions_set", "rgb", "xyz", "luminance_only", "spectral",
+               "wavelengths", "alpha", "metadata")
+
+    def replace(self, **changes) -> SkyImage:
+        """A copy with some attributes replaced (what :func:`dataclasses.replace` did when
+        ``SkyImage`` was a dataclass); unchanged layers are shared, not copied.
+
+        Parameters
+        ----------
+        **changes
+            New values of any of ``scene``, ``plan``, ``directions_set``, ``rgb``, ``xyz``,
+            ``luminance_only``, ``spectral``, ``wavelengths``, ``alpha``, ``metadata``.
+
+        Returns
+        -------
+        SkyImage
+            The new image; ``metadata`` is a shallow copy unless replaced.
+
+        Raises
+        ------
+        TypeError
+            If a keyword names no attribute of a sky image.
+        """
+        unknown = sorted(set(changes) - set(self._FIELDS))
+        if unknown:
+            raise TypeError(f"SkyImage.replace() got unknown attribute(s) {unknown}; "
+                            f"valid: {list(self._FIELDS)}")
+        new = type(self).__new__(type(self))
+        new.scene, new.plan, new.directions_set = self.scene, self.plan, self.directions_set
+        new._planes = dict(self._planes)
+        new._luminance_only = self._luminance_only
+        new._alpha = self._alpha
+        new.wavelengths = self.wavelengths
+        new.metadata = dict(self.metadata)
+        for k, v in changes.items():
+            setattr(new, k, v)
+        return new
+
+    __replace__ = replace  # copy.replace (Python 3.13+)
+
     def __repr__(self) -> str:
         layers = [n for n in ("rgb", "xyz", "luminance_only", "spectral", "alpha")
                   if getattr(self, "_" + n if n in ("luminance_only", "alpha") else n)

@@ -72,8 +72,8 @@ import numpy as np
 
 from .._validate import as_float_array, check_positive
 from . import _hemisphere
-from .perez import _horizon_term
 from ._preetham_eval import _sun, _views
+from .perez import _horizon_term
 
 __all__ = [
     "CIE_STANDARD_SKY_TYPES",
