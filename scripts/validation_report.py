@@ -334,6 +334,19 @@ MODEL_NATURE = {
 }
 
 
+#: What each model is still good for when no measured case passes (judgement, not a figure).
+MODEL_FALLBACK_USE = {
+    "preetham": "a fast daylight sky whose look matters more than its numbers (previews, "
+                "backgrounds), sun above the horizon",
+    "hoffman_preetham": "real-time previews and aerial perspective where speed matters more "
+                        "than the level",
+    "cie_clear": "work that needs the CIE standard clear-sky distribution itself (the "
+                 "standard, not the physical sky)",
+    "single_scattering": "the first order of the physical model: checks, thin atmospheres, "
+                         "the geometry of light and shadow; add multiple scattering for levels",
+}
+
+
 def _verdicts(rows, tested):
     """Plain-language verdict per model, every figure computed from ``rows``."""
     out = ["### Verdicts", "",
@@ -367,13 +380,19 @@ def _verdicts(rows, tested):
                                    "(some turbidities)")
             use.append(f"the luminance distribution over the sky once scaled to a known level, {where}")
         bad_el = [e for e in els if e not in shape_ok]
-        if bad_el:
+        best = min(ok, key=lambda r: r["scaled_p95"])
+        if not shape_ok:
+            avoid.append(f"the sky's shape: no case passes even after scaling (best p95 "
+                         f"{best['scaled_p95']:.2f}, T = {best['turbidity']:g}, sun "
+                         f"{best['sun_elevation_deg']:.0f}°)")
+        elif bad_el:
             avoid.append(f"the sky's shape with the sun at {', '.join(f'{e}°' for e in bad_el)} "
-                         "(shape fails at every measured turbidity)"
-                         if not shape_ok or len(bad_el) < len(els) else "the sky's shape")
+                         "(fails at every measured turbidity)")
         avoid.append(f"colour-critical work: ΔE00 p95 {de[0]:.0f}–{de[-1]:.0f} against the reference")
         out += [f"**`{m}`** — {MODEL_NATURE.get(m, 'a sky model')}.", "",
-                f"- *Use for*: {'; '.join(use) if use else 'nothing quantitative against this reference — a fast, plausible-looking sky'}.",
+                "- *Use for*: " + ("; ".join(use) if use else
+                                   "no measured case supports a quantitative use; "
+                                   + MODEL_FALLBACK_USE.get(m, "qualitative pictures")) + ".",
                 f"- *Do not use for*: {'; '.join(avoid)}.", ""]
     return out
 
