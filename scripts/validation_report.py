@@ -149,7 +149,11 @@ def _error_map_png(path, values, kind, title):
         cb = fig.colorbar(im, ax=ax, shrink=0.85)
         ticks = np.linspace(-lim, lim, 5)
         cb.set_ticks(ticks)
-        cb.set_ticklabels([f"×{2 ** t:.3g}" if t >= 0 else f"÷{2 ** -t:.3g}" for t in ticks])
+        def factor(x):
+            return f"{x:.3g}" if x < 100 else f"{x:.0f}"
+
+        cb.set_ticklabels([f"×{factor(2 ** t)}" if t >= 0 else f"÷{factor(2 ** -t)}"
+                           for t in ticks])
         cb.set_label("Y_model / Y_ref", fontsize=7)
     else:
         finite = a[np.isfinite(a)]
@@ -758,8 +762,10 @@ def outside_references_section(docs_dir, out_dir, width):
                   "[ms_references](validation/ms_references.md)):", "",
                   '--8<-- "validation/ms_references.md:tables"', ""]
     else:
-        lines += ["**Not generated in this output directory**: run "
-                  "`scripts/ms_reference_check.py --out docs/validation/ms_references.md`.", ""]
+        lines += ["The comparison tables are on [their own page](validation/ms_references.md) "
+                  "(not included here: that page predates its `tables` snippet section; "
+                  "regenerate it with `python scripts/make_docs_data.py --only ms_references`).",
+                  ""]
     lines += ["### Single scattering: an independent quadrature", ""]
     check = os.path.join(docs_dir, "convergence", "convergence_reference_check.md")
     if os.path.exists(check):
