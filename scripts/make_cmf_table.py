@@ -22,11 +22,17 @@ NAME = "CIE 1931 2 Degree Standard Observer"
 OUT = os.path.join(os.path.dirname(__file__), "..", "atmoscatter", "data", "cie1931_2deg_cmf.csv")
 
 
-def main() -> None:
+def main(argv=None) -> None:
+    """Write the table to ``--out`` (default: the shipped file)."""
+    import argparse
+
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--out", default=OUT, help="output file (default: the shipped data file)")
+    args = ap.parse_args(argv)
     cmfs = colour.MSDS_CMFS[NAME]
     wl = np.asarray(cmfs.wavelengths, dtype=float)
     v = np.asarray(cmfs.values, dtype=float)
-    out = os.path.abspath(OUT)
+    out = os.path.abspath(args.out)
     with atomic_write(out) as tmp, open(tmp, "w", encoding="utf-8") as f:
         f.write(f"# {NAME}: colour-matching functions x_bar, y_bar, z_bar [-]\n")
         f.write(f"# source: colour-science {colour.__version__}, colour.MSDS_CMFS (CIE data; "

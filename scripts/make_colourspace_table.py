@@ -45,9 +45,15 @@ def build() -> dict:
     }
 
 
-def main() -> None:
+def main(argv=None) -> None:
+    """Write the table to ``--out`` (default: the shipped file)."""
+    import argparse
+
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--out", default=OUT, help="output file (default: the shipped data file)")
+    args = ap.parse_args(argv)
     table = build()
-    out = os.path.abspath(OUT)
+    out = os.path.abspath(args.out)
     with atomic_write(out) as tmp, open(tmp, "w", encoding="utf-8") as f:
         json.dump(table, f, indent=1, sort_keys=False)
         f.write("\n")

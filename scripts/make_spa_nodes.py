@@ -21,7 +21,13 @@ from atmoscatter.sun import nodes, spa
 FIRST_YEAR, LAST_YEAR = 1900, 2101  # nodes covering 1900-01-01 … 2101-01-01
 
 
-def main():
+def main(argv=None):
+    """Write the table to ``--out`` (default: the shipped file)."""
+    import argparse
+
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--out", default=None, help="output file (default: the shipped data file)")
+    args = ap.parse_args(argv)
     j2000 = np.datetime64("2000-01-01T12:00", "s")
     d0 = (np.datetime64(f"{FIRST_YEAR}-01-01", "s") - j2000) / np.timedelta64(1, "D")
     d1 = (np.datetime64(f"{LAST_YEAR}-01-01", "s") - j2000) / np.timedelta64(1, "D")
@@ -30,7 +36,8 @@ def main():
     run_ids = np.arange(first_run, last_run + 1)
     nodes._RUN_CACHE.clear()
     runs = nodes._node_runs(run_ids, None, use_table=False)
-    path = os.path.join(os.path.dirname(__file__), "..", "atmoscatter", "data", "spa_nodes.npz")
+    path = args.out or os.path.join(os.path.dirname(__file__), "..", "atmoscatter", "data",
+                                    "spa_nodes.npz")
     np.savez_compressed(
         path, runs=runs, first_run=first_run, node_step=nodes._NODE_STEP, run=spa._RUN,
         columns=np.array(spa._COLUMNS),

@@ -46,7 +46,6 @@ sys.path.insert(0, os.path.join(os.path.dirname(__file__), os.pardir))
 import numpy as np  # noqa: E402
 
 import atmoscatter as ac  # noqa: E402
-from atmoscatter.compare.report import _diverging, _sequential, _write_png  # noqa: E402
 
 SITE = {"latitude": 39.742, "longitude": -105.179}  # NREL, Golden, Colorado
 SITE_NAME = "NREL, Golden, Colorado (39.742° N, 105.179° W)"
@@ -117,6 +116,61 @@ def _upscale(a, k):
     return np.repeat(np.repeat(a, k, axis=0), k, axis=1)
 
 
+def _nice_ceil(x, steps=(1.0, 2.0, 2.5, 5.0, 10.0)):
+    """Smallest 'round' number ≥ x (x > 0)."""
+    e = np.floor(np.log10(x))
+    return float(next(s for s in steps if s * 10 ** e >= x * (1 - 1e-12)) * 10 ** e)
+
+
+def _error_map_png(path, values, kind, title):
+    """An error map with a colour bar; the scale covers the data (nothing saturates).
+
+    ``kind="ratio"``: ``values`` = Y_model / Y_ref − 1, shown as log2(Y_model / Y_ref) on a
+    symmetric diverging scale (blue: model darker, red: brighter), the limit the largest
+    factor on the map rounded up; ``kind="de"``: ΔE00 from 0 to the map's maximum rounded up.
+    Grey: not compared (below the horizon, around the sun).
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    a = np.asarray(values, float)
+    cmap = plt.get_cmap("RdBu_r" if kind == "ratio" else "magma_r").copy()
+    cmap.set_bad("0.6")
+    fig, ax = plt.subplots(figsize=(4.2, 2.3))
+    if kind == "ratio":
+        with np.errstate(divide="ignore", invalid="ignore"):
+            data = np.log2(np.maximum(a + 1.0, 2.0 ** -60))
+        finite = data[np.isfinite(data)]
+        lim = _nice_ceil(max(float(np.abs(finite).max()) if finite.size else 0.0, 0.05))
+        im = ax.imshow(np.ma.masked_invalid(data), cmap=cmap, vmin=-lim, vmax=lim,
+                       interpolation="nearest")
+        cb = fig.colorbar(im, ax=ax, shrink=0.85)
+        ticks = np.linspace(-lim, lim, 5)
+        cb.set_ticks(ticks)
+        def factor(x):
+            return f"{x:.3g}" if x < 100 else f"{x:.0f}"
+
+        cb.set_ticklabels([f"×{factor(2 ** t)}" if t >= 0 else f"÷{factor(2 ** -t)}"
+                           for t in ticks])
+        cb.set_label("Y_model / Y_ref", fontsize=7)
+    else:
+        finite = a[np.isfinite(a)]
+        vmax = _nice_ceil(max(float(finite.max()) if finite.size else 0.0, 1.0))
+        im = ax.imshow(np.ma.masked_invalid(a), cmap=cmap, vmin=0.0, vmax=vmax,
+                       interpolation="nearest")
+        cb = fig.colorbar(im, ax=ax, shrink=0.85)
+        cb.set_label("ΔE00", fontsize=7)
+    cb.ax.tick_params(labelsize=6)
+    ax.set_title(title, fontsize=7)
+    ax.set_xticks([])
+    ax.set_yticks([])
+    fig.tight_layout()
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+
+
 def model_section(out_dir, width, n_times):
     from atmoscatter import compare_images
 
@@ -126,7 +180,7 @@ def model_section(out_dir, width, n_times):
     elif "single_scattering" in models:
         ref_model, converged = "single_scattering", False
     else:
-        return ["## Models against the reference", "",
+        return ["## 2. The analytic models against the physical reference", "",
                 "**Not generated**: neither `multiple_scattering` nor `single_scattering` is "
                 "available in this build, so there is no physical reference to compare with.",
                 ""], [], {}
@@ -188,14 +242,14 @@ def model_section(out_dir, width, n_times):
                 if c is None:
                     continue
                 stem = f"{m}_T{T:g}_{'low' if label == 'low sun' else 'high'}"
-                k = max(1, 256 // width)
-                _write_png(os.path.join(out_dir, f"{stem}_lum.png"),
-                           _upscale(_diverging(c.relative_error_map, 1.0), k))
-                _write_png(os.path.join(out_dir, f"{stem}_scaled.png"),
-                           _upscale(_diverging((c.relative_error_map + 1.0) * c.scale - 1.0,
-                                               1.0), k))
-                _write_png(os.path.join(out_dir, f"{stem}_de.png"),
-                           _upscale(_sequential(c.delta_e_map, 10.0), k))
+                what = f"{m}, T = {T:g}, {label}"
+                _error_map_png(os.path.join(out_dir, f"{stem}_lum.png"), c.relative_error_map,
+                               "ratio", f"{what}: luminance, absolute")
+                _error_map_png(os.path.join(out_dir, f"{stem}_scaled.png"),
+                               (c.relative_error_map + 1.0) * c.scale - 1.0, "ratio",
+                               f"{what}: after best-fit scale {c.scale:.3g}")
+                _error_map_png(os.path.join(out_dir, f"{stem}_de.png"), c.delta_e_map, "de",
+                               f"{what}: ΔE00")
                 map_lines.append(
                     f"| {m} | {T:g} | {label} ({tt}) | "
                     f"![luminance error](validation/{stem}_lum.png) | "
@@ -208,7 +262,9 @@ def model_section(out_dir, width, n_times):
                  "available in this build, so the numbers below measure the distance to single "
                  "scattering only (it lacks the higher orders, which brighten the sky by tens "
                  "of percent at low sun and high turbidity)")
-    lines = ["## Models against the reference", "",
+    lines = ["## 2. The analytic models against the physical reference", "",
+             "Here the physical model of section 1 is the yardstick: the numbers say how far "
+             "each faster model is from it, not from the real sky.", "",
              f"Site: {SITE_NAME}, {DAY}, {len(times)} instants from 15 min after sunrise to 15 "
              f"min before sunset (from {how}); turbidity {', '.join(f'{t:g}' for t in TURBIDITIES)}.",
              f"Reference: {ref_label}.",
@@ -227,6 +283,7 @@ def model_section(out_dir, width, n_times):
               "reference." for m in NOT_CLEAR_SKY if m in models] + [""]
     if not tested:
         lines += ["No clear-sky model other than the reference is available.", ""]
+    lines += _verdicts(rows, tested)
     lines += _findings(rows, tested)
     lines += _illuminance_table(rows, tested)
     for m in tested:
@@ -253,9 +310,11 @@ def model_section(out_dir, width, n_times):
                   ""]
     if map_lines:
         lines += ["### Error maps", "",
-                  "Signed luminance relative error without and with the best-fit scale (blue: "
-                  "model darker, red: brighter, saturated at ±100 %, grey: not compared) and ΔE00 (white 0 → dark red ≥ 10); lat-long, "
-                  "zenith on top, north in the centre.", "",
+                  "Luminance ratio model / reference without and with the best-fit scale, on "
+                  "a log scale (blue: model darker, red: brighter; each map's colour bar spans "
+                  "its largest factor, so nothing saturates; grey: not compared) and ΔE00 "
+                  "(colour bar from 0 to the map's maximum); lat-long, zenith on top, north in "
+                  "the centre.", "",
                   "| model | T | sun | luminance error | after best-fit scale | ΔE00 |",
                   "|---|---|---|---|---|---|",
                   *map_lines, ""]
@@ -267,8 +326,83 @@ def _elev_list(rr):
     return ", ".join(f"{e:.0f}°" for e in els)
 
 
+#: What each model is (from its source; not a measurement), for the verdicts.
+MODEL_NATURE = {
+    "preetham": "an analytic fit (Preetham et al. 1999) to a physical daylight model, "
+                "turbidity 2–10, sun above the horizon",
+    "hoffman_preetham": "a real-time analytic single-scattering approximation (Hoffman & "
+                        "Preetham) with exponential Rayleigh and Mie layers",
+    "cie_clear": "the CIE clear-sky luminance distribution relative to the zenith, scaled by a "
+                 "zenith-luminance formula, with a fixed D65 colour",
+    "single_scattering": "the physical model without orders ≥ 2 (no multiply scattered light)",
+}
+
+
+#: What each model is still good for when no measured case passes (judgement, not a figure).
+MODEL_FALLBACK_USE = {
+    "preetham": "a fast daylight sky whose look matters more than its numbers (previews, "
+                "backgrounds), sun above the horizon",
+    "hoffman_preetham": "real-time previews and aerial perspective where speed matters more "
+                        "than the level",
+    "cie_clear": "work that needs the CIE standard clear-sky distribution itself (the "
+                 "standard, not the physical sky)",
+    "single_scattering": "the first order of the physical model: checks, thin atmospheres, "
+                         "the geometry of light and shadow; add multiple scattering for levels",
+}
+
+
+def _verdicts(rows, tested):
+    """Plain-language verdict per model, every figure computed from ``rows``."""
+    out = ["### Verdicts", "",
+           f"A case *passes* when the 95th percentile of the relative luminance error over the "
+           f"sky is at most {FAIL_P95:.0%}.  *Absolute*: no rescaling (what a renderer using the "
+           "model in physical units gets); *shape*: after the best-fit scale (only the "
+           "distribution over the sky).  The verdicts are generated from the tables below.", ""]
+    for m in tested:
+        ok = [r for r in rows if r["model"] == m and "p95" in r]
+        if not ok:
+            continue
+        els = sorted({round(r["sun_elevation_deg"]) for r in ok})
+        shape_ok = sorted({round(r["sun_elevation_deg"]) for r in ok
+                           if r["scaled_p95"] <= FAIL_P95})
+        abs_ok = [r for r in ok if r["p95"] <= FAIL_P95]
+        factor = sorted(1.0 / r["scale"] for r in ok)
+        de = sorted(r["delta_e_p95"] for r in ok)
+        use, avoid = [], []
+        if abs_ok:
+            use.append(f"absolute luminance where it passes ({len(abs_ok)} of {len(ok)} cases: "
+                       + ", ".join(sorted({f'T = {r["turbidity"]:g}, sun {r["sun_elevation_deg"]:.0f}°'
+                                           for r in abs_ok})) + ")")
+        else:
+            avoid.append(f"absolute luminance: its level is {factor[0]:.2g}–{factor[-1]:.2g} "
+                         f"times the reference's (no case passes)")
+        if shape_ok:
+            all_t = [T for T in TURBIDITIES
+                     if all(r["scaled_p95"] <= FAIL_P95 for r in ok if r["turbidity"] == T)]
+            where = (f"at every measured sun elevation for T = {', '.join(f'{t:g}' for t in all_t)}"
+                     if all_t else f"with the sun at {', '.join(f'{e}°' for e in shape_ok)} "
+                                   "(some turbidities)")
+            use.append(f"the luminance distribution over the sky once scaled to a known level, {where}")
+        bad_el = [e for e in els if e not in shape_ok]
+        best = min(ok, key=lambda r: r["scaled_p95"])
+        if not shape_ok:
+            avoid.append(f"the sky's shape: no case passes even after scaling (best p95 "
+                         f"{best['scaled_p95']:.2f}, T = {best['turbidity']:g}, sun "
+                         f"{best['sun_elevation_deg']:.0f}°)")
+        elif bad_el:
+            avoid.append(f"the sky's shape with the sun at {', '.join(f'{e}°' for e in bad_el)} "
+                         "(fails at every measured turbidity)")
+        avoid.append(f"colour-critical work: ΔE00 p95 {de[0]:.0f}–{de[-1]:.0f} against the reference")
+        out += [f"**`{m}`** — {MODEL_NATURE.get(m, 'a sky model')}.", "",
+                "- *Use for*: " + ("; ".join(use) if use else
+                                   "no measured case supports a quantitative use; "
+                                   + MODEL_FALLBACK_USE.get(m, "qualitative pictures")) + ".",
+                f"- *Do not use for*: {'; '.join(avoid)}.", ""]
+    return out
+
+
 def _findings(rows, tested):
-    out = ["### Where the models fail", "",
+    out = ["### Where the models fail (details)", "",
            f"A case *fails* when more than 5 % of the sky is off by more than {FAIL_P95:.0%} "
            "(p95 of the relative luminance error above that).  *Absolute*: no rescaling (what "
            "a renderer using the model in physical units gets); *shape*: after the best-fit "
@@ -469,7 +603,7 @@ def brightness_section(out_dir, n_theta):
 
 
 def sun_section():
-    lines = ["## Sun position and sunrise/sunset", ""]
+    lines = ["### Sun position and sunrise/sunset: pvlib's NREL SPA", ""]
     if not hasattr(ac, "sun_position"):
         return lines + ["**Not generated**: `atmoscatter.sun` is not available in this build.", ""]
     try:
@@ -538,7 +672,7 @@ def sun_section():
 
 def reference_orders_section(out_dir, width):
     """How the multiple-scattering reference converges with the number of orders."""
-    lines = ["## Convergence of the reference in scattering orders", ""]
+    lines = ["### The reference's own convergence in scattering orders", ""]
     if "multiple_scattering" not in _models():
         return lines + ["**Not generated**: `multiple_scattering` is not available.", ""]
     orders = (1, 2, 3, 4, 6, 8, 12, 16, 20)
@@ -585,39 +719,70 @@ def reference_orders_section(out_dir, width):
 
 
 def convergence_section(docs_dir):
-    """Include the numerical issue's convergence study (benchmarks/convergence.py output)."""
-    lines = ["## Convergence of the numerical models", ""]
+    """Link the numerical convergence studies (their pages carry the tables)."""
+    lines = ["## Convergence and cost of the numerical models", ""]
     conv = os.path.join(docs_dir, "convergence")
-    table = os.path.join(conv, "convergence_table.md")
-    claim = os.path.join(conv, "seed002_claim.md")
-    png = os.path.join(conv, "convergence.png")
-    if not (os.path.exists(table) or os.path.exists(png)):
-        return lines + ["**Not available in this build**: the numerical issue's convergence "
-                        "study (error against run time, `benchmarks/convergence.py` → "
-                        "`docs/convergence/`) has not been generated; this report includes it "
-                        "once it exists.", ""]
-    lines += ["Error against run time of the single-scattering methods on the canonical scenes, "
-              "generated by `benchmarks/convergence.py` (numerical issue) into "
-              "`docs/convergence/`" + (" — details on [the convergence page](convergence.md)"
-                                       if os.path.exists(os.path.join(docs_dir, "convergence.md"))
-                                       else "") + ".", ""]
-    if os.path.exists(png):
-        lines += ["![error against run time](convergence/convergence.png)", ""]
-    page = os.path.exists(os.path.join(docs_dir, "convergence.md"))
-    if page:  # the full table lives on the convergence page
-        lines += ["The full table (every scene, method and sample count) is on "
-                  "[the convergence page](convergence.md).", ""]
-    for path in ((claim,) if page else (table, claim)):
-        if path == claim and os.path.exists(path):
-            lines += ["Seed 002's claim that its non-equidistant sampling needs about half the "
-                      "samples of equidistant (midpoint) sampling — samples each needs for a "
-                      "target maximum error (ratio < 1 supports the claim):", ""]
-        if os.path.exists(path):
-            with open(path, encoding="utf-8") as fh:
-                text = fh.read().strip()
-            # demote headings so they nest under this section
-            text = "\n".join(("##" + ln) if ln.startswith("#") else ln for ln in text.splitlines())
-            lines += [text, ""]
+    if not os.path.exists(os.path.join(conv, "convergence.png")):
+        return lines + ["**Not available in this build**: the convergence study "
+                        "(`benchmarks/convergence.py` → `docs/convergence/`) has not been "
+                        "generated.", ""]
+    return lines + ["Error against run time of the single- and multiple-scattering methods, "
+                    "the table path and spectral sampling: [the convergence page](convergence.md) "
+                    "(generated by `benchmarks/convergence.py`, `benchmarks/ms_convergence.py`, "
+                    "`benchmarks/table_accuracy.py`; seed 002's sampling claim is tested there).",
+                    "", "![error against run time](convergence/convergence.png)", ""]
+
+
+def intro_section():
+    return ["## What is compared with what", "",
+            "1. **The physical reference against outside references.**  The package's physical "
+            "models (`multiple_scattering`, whose order 1 is `single_scattering`) are checked "
+            "against answers that do not come from this package: the published DISORT test "
+            "problems, an independent Monte Carlo tracer, an independent adaptive quadrature, "
+            "and pvlib's NREL SPA for the sun.  The analytic models are checked against their "
+            "published formulas and coefficient tables.",
+            "2. **The analytic models against that reference.**  `preetham`, "
+            "`hoffman_preetham`, `cie_clear` and `single_scattering` are compared with "
+            "`multiple_scattering` at equal turbidity.  This says how far each is from the "
+            "physical model — a reader who trusts section 1 can read it as the model's error.",
+            "",
+            "No measured-sky data set ships with the package, so no model is compared with "
+            "measured skies here.", ""]
+
+
+def outside_references_section(docs_dir, out_dir, width):
+    """Section 1: the physical reference against references outside the package."""
+    lines = ["## 1. The physical reference against outside references", "",
+             "### Multiple scattering: DISORT's published answers and a Monte Carlo tracer", ""]
+    ms_page = os.path.join(docs_dir, "validation", "ms_references.md")
+    has_section = (os.path.exists(ms_page)
+                   and "[start:tables]" in open(ms_page, encoding="utf-8").read())
+    if has_section:
+        lines += ["Generated by `scripts/ms_reference_check.py` (also on its own page, "
+                  "[ms_references](validation/ms_references.md)):", "",
+                  '--8<-- "validation/ms_references.md:tables"', ""]
+    else:
+        lines += ["The comparison tables are on [their own page](validation/ms_references.md) "
+                  "(not included here: that page predates its `tables` snippet section; "
+                  "regenerate it with `python scripts/make_docs_data.py --only ms_references`).",
+                  ""]
+    lines += ["### Single scattering: an independent quadrature", ""]
+    check = os.path.join(docs_dir, "convergence", "convergence_reference_check.md")
+    if os.path.exists(check):
+        lines += ["Generated by `benchmarks/convergence.py`:", "",
+                  '--8<-- "convergence/convergence_reference_check.md"', ""]
+    else:
+        lines += ["**Not generated in this output directory**: run `benchmarks/convergence.py`.", ""]
+    lines += reference_orders_section(out_dir, width)
+    lines += sun_section()
+    lines += ["### The analytic models: their published formulas", "",
+              "These tests check the implementations, not the skies they describe:", "",
+              "- `preetham`: an independent scalar transcription of Preetham et al. (1999), "
+              "coefficient tables with the errata applied (`tests/test_preetham.py`);",
+              "- `cie_clear`: the CIE S 011/E:2003 (ISO 15469:2004) general sky, type 12, "
+              "evaluated from the standard's formula and parameters (`tests/test_cie.py`);",
+              "- `hoffman_preetham`: its published formulas ("
+              "`tests/test_aerial.py`).", ""]
     return lines
 
 
@@ -655,7 +820,7 @@ def run_benchmarks(out_dir):
     return path
 
 
-def _benchmark_table(out_dir):
+def _benchmark_table(out_dir, fresh=False):
     path = os.path.join(out_dir, "benchmarks.csv")
     if not os.path.exists(path):
         return ["The pytest-benchmark suites were not run for this report (run "
@@ -665,7 +830,10 @@ def _benchmark_table(out_dir):
         rows = list(csv.DictReader(fh))
     if not rows:
         return ["The benchmark run produced no results.", ""]
-    out = [f"pytest-benchmark results (`benchmarks/bench_*.py`, {rows[0]['machine']}, "
+    when = ("measured for this report" if fresh else
+            "**not re-run for this report**: read from the CSV of an earlier "
+            "`python scripts/validation_report.py --benchmarks` run")
+    out = [f"pytest-benchmark results (`benchmarks/bench_*.py`, {when}; {rows[0]['machine']}, "
            f"{rows[0]['date']}, shared and noisy; raw: "
            "[validation/benchmarks.csv](validation/benchmarks.csv)):", "",
            "| benchmark | median [s] | min [s] | rounds |", "|---|---|---|---|"]
@@ -674,8 +842,8 @@ def _benchmark_table(out_dir):
     return out + [""]
 
 
-def speed_section(timings, out_dir):
-    lines = ["## Speed", ""] + _benchmark_table(out_dir)
+def speed_section(timings, out_dir, fresh=False):
+    lines = ["## Speed", ""] + _benchmark_table(out_dir, fresh)
     lines += [f"Render time per evaluated sky direction measured while generating this report "
               f"(whole `atmoscatter.render` call on small maps, so fixed overheads dominate "
               f"for the fast models; {platform.machine()}, {os.cpu_count()} cores, Python "
@@ -718,8 +886,9 @@ def main(argv=None) -> int:
              "regenerate.  Available sky models: "
              f"{', '.join(f'`{m}`' for m in _models()) or 'none'}.", ""]
     bright_lines, _ = brightness_section(out_dir, n_theta)
-    lines += (model_lines + bright_lines + reference_orders_section(out_dir, args.width) + sun_section()
-              + convergence_section(args.out) + speed_section(timings, out_dir))
+    lines += (intro_section() + outside_references_section(args.out, out_dir, args.width)
+              + model_lines + bright_lines
+              + convergence_section(args.out) + speed_section(timings, out_dir, args.benchmarks))
     lines += ["## Gallery", "", "Images rendered by the package: see [gallery](gallery.md).", "",
               f"*Report generated in {time.perf_counter() - t0:.0f} s.*"]
     os.makedirs(args.out, exist_ok=True)
