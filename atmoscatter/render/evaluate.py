@@ -26,8 +26,12 @@ Memory
 ------
 Directions are generated per batch from their indices (never all at once);
 each batch holds ``batch_size`` directions and its model temporaries, and at
-most ``workers`` batches are in flight.  Peak memory is therefore the output
-arrays (float32) plus ``O(workers × batch_size)`` regardless of resolution.
+most ``workers`` batches are in flight.  Each batch's values go straight into
+the output, which is planar (one float32 plane per channel, see
+:mod:`atmoscatter.render.image`) so that :func:`~atmoscatter.write_exr` hands the
+planes to OpenEXR without copies.  Peak memory is therefore the output arrays
+(float32) and a 1-byte mask per direction plus ``O(workers × batch_size)``
+regardless of resolution (``benchmarks/bench_memory.py``).
 NumPy releases the GIL inside its kernels, so threads use the cores without
 copying results between processes.
 """
