@@ -49,7 +49,9 @@ class TestTables:
         np.testing.assert_array_equal(t[5].ravel(), BIN6)
 
     def test_efficacy_table(self):
-        np.testing.assert_array_equal(paw._efficacy_table(), EFFICACY)
+        from atmoscatter.sky._perez_conditions import _efficacy_table
+
+        np.testing.assert_array_equal(_efficacy_table(), EFFICACY)
 
     def test_bin_edges(self):
         assert paw.PEREZ_EPSILON_BIN_EDGES[1:] == tuple(EDGES)
