@@ -52,5 +52,5 @@ _REEXPORTED = ("atmosphere", "colour", "geometry", "optical_length", "phase", "p
                "sky.preetham", "sky.single", "sky.multiple", "scene", "render.plan",
                "render.directions", "render.dome", "render.models", "render.analytic_adapters",
                "render.photometry", "render.physical_adapters", "render.evaluate",
-               "render.image", "exr", "preview", "batch", "integrals", "compare")
+               "render.sun_disc", "render.image", "exr", "preview", "batch", "integrals", "compare")
 __all__ = sorted({n for m in _REEXPORTED for n in _sys.modules[f"{__name__}.{m}"].__all__})

@@ -109,6 +109,10 @@ GENERATORS: tuple[Generator, ...] = (
         "gallery", "scripts/gallery.py", (), ("--scale", "0.125", "--out", "{out}"),
         ("docs/gallery.md", "docs/gallery/*.png"), "~10 min",
         notes="the gallery, rendered by the package"),
+    Generator(
+        "daylighting", "scripts/daylighting_radiance.py", ("--write",), (),
+        ("docs/daylighting.md",), "~1 min",
+        notes="CIE standard and Perez all-weather skies against Radiance (needs pyradiance)"),
 )
 
 

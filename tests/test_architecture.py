@@ -183,3 +183,22 @@ def test_no_module_is_long_without_saying_why():
             if "indivisible" not in doc.lower() and "one piece" not in doc.lower():
                 long.append(f"{name} ({lines} lines)")
     assert not long, f"modules over ~500 lines without a reason in their docstring: {long}"
+
+
+def test_reexported_names_are_unambiguous():
+    """Two modules re-exported by ``atmoscatter`` may share a name only for the same object
+    (a later star import would silently shadow the earlier one: ``ac.SOLAR_CONSTANT`` once
+    became the Perez model's 1367 W m⁻² instead of the shipped spectrum's integral)."""
+    import importlib
+
+    import atmoscatter
+
+    seen, clashes = {}, []
+    for m in atmoscatter._REEXPORTED:
+        mod = importlib.import_module(f"atmoscatter.{m}")
+        for n in mod.__all__:
+            obj = getattr(mod, n)
+            if n in seen and seen[n][1] is not obj:
+                clashes.append(f"{n}: {seen[n][0]} and {m}")
+            seen.setdefault(n, (m, obj))
+    assert not clashes, clashes

@@ -39,14 +39,8 @@ from .analytic_adapters import CIE_SKY_CHROMATICITY  # importing it registers Pr
 from . import daylight_adapters  # noqa: F401  (registers the CIE standard and Perez skies)
 from .photometry import rgb_sampling_matrix
 from .physical_adapters import HOFFMAN_PREETHAM_HAZE_G, physical_adapter  # registers them
-from .evaluate import (
-    GAMUT_WARN_FRACTION,
-    LIMB_DARKENING_U,
-    GamutWarning,
-    render,
-    render_batches,
-    sun_disc_radiance,
-)
+from .evaluate import GAMUT_WARN_FRACTION, GamutWarning, render, render_batches
+from .sun_disc import LIMB_DARKENING_U, sun_disc_radiance
 from .image import SkyImage
 
 # Exactly the union of the modules' ``__all__``: ``atmoscatter.__all__`` is built from the

@@ -33,14 +33,14 @@ def _prepare_cie_standard(scene, plan):
 
 def _scene_extraterrestrial_irradiance(scene) -> float:
     """Solar constant 1367 W m⁻² scaled by 1/r² for the scene date (1 AU without a time)."""
-    from ..sky.perez_all_weather import SOLAR_CONSTANT  # noqa: PLC0415
+    from ..sky.perez_all_weather import PEREZ_SOLAR_CONSTANT  # noqa: PLC0415
 
     if not scene.time:
-        return SOLAR_CONSTANT
+        return PEREZ_SOLAR_CONSTANT
     from ..sun import earth_sun_distance  # noqa: PLC0415
 
     t = np.datetime64(scene.datetime().replace(tzinfo=None), "ns")
-    return SOLAR_CONSTANT / float(earth_sun_distance(t)) ** 2
+    return PEREZ_SOLAR_CONSTANT / float(earth_sun_distance(t)) ** 2
 
 
 def _prepare_perez_all_weather(scene, plan):

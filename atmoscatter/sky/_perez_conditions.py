@@ -31,7 +31,7 @@ _LOW_DELTA_FLOOR = 0.2
 DEFAULT_PRECIPITABLE_WATER: float = 2.0
 #: Extraterrestrial normal irradiance at 1 AU used by default [W m⁻²] (Perez et al. 1990;
 #: gendaylit, gendaymtx).
-SOLAR_CONSTANT: float = 1367.0
+PEREZ_SOLAR_CONSTANT: float = 1367.0
 #: κ of the sky clearness [rad⁻³] (Perez et al. 1990, Eq. 1).
 _KAPPA = 1.041
 #: Floor of cos Z in the gradation term (Radiance perezlum.cal).
@@ -107,7 +107,7 @@ def perez_sky_clearness(direct_normal_irradiance, diffuse_horizontal_irradiance,
 
 
 def perez_sky_brightness(diffuse_horizontal_irradiance, sun_zenith, *,
-                         extraterrestrial_normal_irradiance=SOLAR_CONSTANT):
+                         extraterrestrial_normal_irradiance=PEREZ_SOLAR_CONSTANT):
     """Perez sky brightness ``Δ = m D / I₀`` (Perez et al. 1990, Eq. 2).
 
     Parameters

@@ -92,7 +92,7 @@ __all__ = [
     "PEREZ_EPSILON_RANGE",
     "PEREZ_DELTA_RANGE",
     "DEFAULT_PRECIPITABLE_WATER",
-    "SOLAR_CONSTANT",
+    "PEREZ_SOLAR_CONSTANT",
     "PerezRangeWarning",
     "PerezAllWeatherConditions",
     "perez_sky_clearness",
@@ -116,7 +116,7 @@ from ._perez_conditions import (  # noqa: F401  (public names re-exported here)
     PEREZ_DELTA_RANGE,
     PEREZ_EPSILON_BIN_EDGES,
     PEREZ_EPSILON_RANGE,
-    SOLAR_CONSTANT,
+    PEREZ_SOLAR_CONSTANT,
     PerezRangeWarning,
     _clamp,
     _luminance_table,
@@ -255,7 +255,7 @@ def _scalar(x):
 
 def perez_all_weather_conditions(sun_zenith, direct_normal_irradiance,
                                  diffuse_horizontal_irradiance, *, dew_point=None,
-                                 extraterrestrial_normal_irradiance=SOLAR_CONSTANT,
+                                 extraterrestrial_normal_irradiance=PEREZ_SOLAR_CONSTANT,
                                  low_delta_correction=True):
     """ε, Δ, coefficients, efficacy and absolute scale of Perez all-weather skies.
 
@@ -342,7 +342,7 @@ def perez_all_weather_conditions(sun_zenith, direct_normal_irradiance,
 
 def perez_all_weather_luminance(view_zenith, gamma, sun_zenith, direct_normal_irradiance,
                                 diffuse_horizontal_irradiance, *, dew_point=None,
-                                extraterrestrial_normal_irradiance=SOLAR_CONSTANT,
+                                extraterrestrial_normal_irradiance=PEREZ_SOLAR_CONSTANT,
                                 low_delta_correction=True):
     """Absolute luminance of the Perez all-weather sky [cd m⁻²].
 
@@ -378,7 +378,7 @@ extraterrestrial_normal_irradiance, low_delta_correction
 
 def perez_all_weather_sky(view_directions, sun_direction, direct_normal_irradiance,
                           diffuse_horizontal_irradiance, *, dew_point=None,
-                          extraterrestrial_normal_irradiance=SOLAR_CONSTANT,
+                          extraterrestrial_normal_irradiance=PEREZ_SOLAR_CONSTANT,
                           low_delta_correction=True):
     """Perez all-weather luminance for view directions (..., 3) [cd m⁻²].
 
