@@ -52,6 +52,7 @@ LAYERS = {
     "sky": 2,
     "convergence": 3,
     "scene": 4,
+    "_scene_checks": 4,
     "render": 4,
     "integrals": 4,
     "_integrals_sh": 4,
