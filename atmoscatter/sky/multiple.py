@@ -212,7 +212,7 @@ class _March:
 def _ms_view_bounds(b: _Batch, m: int = 1) -> np.ndarray:
     """Panel boundaries along a view ray for integrals of a *smooth* source.
 
-    The single-scattering rule (:func:`atmoscatter.sky.single._graded_view_bounds`) also
+    The single-scattering rule (:func:`atmoscatter.sky._single_rules._graded_view_bounds`) also
     splits at the planet's shadow and where the sun ray grazes optical-depth levels,
     because the sun's transmittance changes abruptly there.  The multiple-scattering
     source varies smoothly along a ray (it is a phase integral of the field, and the
