@@ -121,3 +121,21 @@ def horizontal_integral(relative, sun_zenith, params, *, n_mu=DEFAULT_N_MU, n_ph
         f = np.broadcast_to(f, cos_g.shape)
         out[sl] = 2.0 * np.einsum("kmp,km,p->k", f, w_mu * mu, w_phi)
     return out
+
+
+def dark_sky(v: np.ndarray) -> np.ndarray:
+    """Zero luminance for every view of ``v`` (shape (..., 3)), NaN where a view is NaN: the
+    sky of a luminance model with the sun below the horizon."""
+    out = np.zeros(v.shape[:-1], dtype=v.dtype)
+    out[np.isnan(v).any(axis=-1)] = np.nan
+    return out
+
+
+def unit_views_and_sun_angle(v: np.ndarray, sun: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Unit views (float64) and their angle γ to the sun [rad], ``2 atan2(|v̂ − ŝ|, |v̂ + ŝ|)``
+    (accurate at the sun and the anti-solar point); NaN views give NaN."""
+    v64 = v.astype(np.float64)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        vh = v64 / np.sqrt(np.sum(v64 * v64, axis=-1, keepdims=True))
+    gamma = 2.0 * np.arctan2(np.linalg.norm(vh - sun, axis=-1), np.linalg.norm(vh + sun, axis=-1))
+    return vh, np.where(np.isnan(vh[..., 0]), np.nan, gamma)

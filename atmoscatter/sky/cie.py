@@ -48,6 +48,7 @@ import math
 import numpy as np
 
 from .._validate import as_float_array, check_option, check_positive
+from . import _hemisphere
 from ._preetham_eval import _sun, _views
 from .perez import _horizon_term
 from .preetham import preetham_zenith
@@ -188,14 +189,8 @@ def cie_clear_sky(view_directions, sun_direction, zenith_luminance):
     sun = _sun(sun_direction)
     Yz = float(_zenith_luminance_value(zenith_luminance))
     if sun[2] < 0.0:
-        out = np.zeros(v.shape[:-1], dtype=v.dtype)
-        out[np.isnan(v).any(axis=-1)] = np.nan
-        return out
-    v64 = v.astype(np.float64)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        vh = v64 / np.sqrt(np.sum(v64 * v64, axis=-1, keepdims=True))
-    gamma = 2.0 * np.arctan2(np.linalg.norm(vh - sun, axis=-1), np.linalg.norm(vh + sun, axis=-1))
-    gamma = np.where(np.isnan(vh[..., 0]), np.nan, gamma)
+        return _hemisphere.dark_sky(v)
+    vh, gamma = _hemisphere.unit_views_and_sun_angle(v, sun)
     out = cie_clear_sky_luminance(np.arccos(np.clip(vh[..., 2], -1, 1)), gamma, math.acos(sun[2]), Yz)
     return np.asarray(out, dtype=v.dtype)
 

@@ -403,14 +403,8 @@ def cie_standard_sky(view_directions, sun_direction, cie_type, *, zenith_luminan
     ts = math.acos(max(-1.0, min(1.0, float(sun[2]))))
     lz = float(_zenith_scale(ts, t, zenith_luminance, diffuse_horizontal_illuminance))
     if sun[2] < 0.0:
-        out = np.zeros(v.shape[:-1], dtype=v.dtype)
-        out[np.isnan(v).any(axis=-1)] = np.nan
-        return out
-    v64 = v.astype(np.float64)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        vh = v64 / np.sqrt(np.sum(v64 * v64, axis=-1, keepdims=True))
-    gamma = 2.0 * np.arctan2(np.linalg.norm(vh - sun, axis=-1), np.linalg.norm(vh + sun, axis=-1))
-    gamma = np.where(np.isnan(vh[..., 0]), np.nan, gamma)
+        return _hemisphere.dark_sky(v)
+    vh, gamma = _hemisphere.unit_views_and_sun_angle(v, sun)
     a, b, c, d, e = cie_standard_sky_parameters(t)
     with np.errstate(invalid="ignore"):
         rel = _relative(vh[..., 2], np.cos(gamma), gamma, ts, a, b, c, d, e)

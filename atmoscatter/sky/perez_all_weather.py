@@ -408,10 +408,7 @@ def perez_all_weather_sky(view_directions, sun_direction, direct_normal_irradian
         zs, direct_normal_irradiance, diffuse_horizontal_irradiance, dew_point=dew_point,
         extraterrestrial_normal_irradiance=extraterrestrial_normal_irradiance,
         low_delta_correction=low_delta_correction)
-    v64 = v.astype(np.float64)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        vh = v64 / np.sqrt(np.sum(v64 * v64, axis=-1, keepdims=True))
-    gamma = 2.0 * np.arctan2(np.linalg.norm(vh - sun, axis=-1), np.linalg.norm(vh + sun, axis=-1))
+    vh, gamma = _hemisphere.unit_views_and_sun_angle(v, sun)
     scale = float(cond.scale)
     with np.errstate(over="ignore", invalid="ignore"):
         out = scale * _lv(vh[..., 2], np.cos(gamma), gamma, *(float(c) for c in cond.coefficients))
