@@ -121,3 +121,11 @@ class TestBatch:
         assert summary.count("done") == 2 and summary.count("failed") == 1
         assert (tmp_path / "out" / "overcast.exr").exists()
         assert (tmp_path / "out" / "hour_12.exr").exists()
+
+
+def test_plan_says_turbidity_is_not_used_by_measured_input_skies():
+    """The plan's notes do not call turbidity a fit parameter of the daylighting skies."""
+    p = ac.plan(ac.Scene(model="cie_standard", cie_type=3, zenith_luminance=5000.0))
+    assert any("turbidity is not used" in n for n in p.notes)
+    assert not any("parameter of the fit" in n for n in p.notes)
+    assert not p.haze
