@@ -64,6 +64,7 @@ _CIE_STANDARD = ModelAdapter(
     description="CIE standard general sky, types 1-15 (ISO 15469 / CIE S 011), scaled by a "
     "zenith luminance or a diffuse horizontal illuminance; colour: D65 chromaticity",
     prepare=_prepare_cie_standard,
+    driven_by="cie_type and a zenith luminance or diffuse horizontal illuminance",
     cost_per_direction=2e-7,
     error_estimate="CIE S 011 relative distribution (exact to the standard's formulas); "
     "illuminance scaling by quadrature (< 1e-8 relative); chromaticity assumed D65",
@@ -74,6 +75,7 @@ _PEREZ_ALL_WEATHER = ModelAdapter(
     description="Perez, Seals & Michalsky (1993) all-weather sky from direct-normal and "
     "diffuse-horizontal irradiance, Perez et al. (1990) diffuse efficacy; colour: D65",
     prepare=_prepare_perez_all_weather,
+    driven_by="direct-normal and diffuse-horizontal irradiance",
     cost_per_direction=2e-7,
     error_estimate="Perez all-weather fit (published RMS errors of ~20-30 % per sky element); "
     "absolute level from the Perez 1990 diffuse efficacy (a few % RMS); chromaticity "

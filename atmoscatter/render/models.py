@@ -114,6 +114,9 @@ class ModelAdapter:
         Turbidity range of a fitted model (outside it the model clamps and warns).
     accepts_atmosphere : bool
         The model takes a custom :class:`~atmoscatter.Atmosphere` (``plan.atmosphere``).
+    driven_by : str
+        For a model set by measured sky quantities rather than turbidity, what drives it
+        (the plan then says so and that turbidity is not used); empty otherwise.
     """
 
     name: str
@@ -128,6 +131,7 @@ class ModelAdapter:
     error_estimate: str | Callable = "not stated"
     turbidity_range: tuple | None = None
     accepts_atmosphere: bool = False
+    driven_by: str = ""
 
 
 MODELS: dict[str, ModelAdapter] = {}

@@ -186,12 +186,6 @@ class Plan:
         return "\n".join(lines)
 
 
-#: luminance models set by measured sky quantities, not by turbidity (what drives each)
-_MEASURED_INPUT_MODELS = {
-    "cie_standard": "cie_type and a zenith luminance or diffuse horizontal illuminance",
-    "perez_all_weather": "direct-normal and diffuse-horizontal irradiance",
-}
-
 def _ground_value_text(scene: Scene) -> str:
     if scene.ground_albedo == 0.0:
         return "0 (black ground, ground_albedo = 0)"
@@ -348,10 +342,9 @@ def plan(scene: Scene, *, batch_size: int | None = None, atmosphere=None) -> Pla
         haze = scene.turbidity > 1.0
         if not haze:
             notes.append("turbidity 1: no aerosol, the haze term is left out")
-    elif scene.model in _MEASURED_INPUT_MODELS:
+    elif adapter.driven_by:
         haze = False
-        notes.append(f"{scene.model}: driven by {_MEASURED_INPUT_MODELS[scene.model]}; "
-                     "turbidity is not used")
+        notes.append(f"{scene.model}: driven by {adapter.driven_by}; turbidity is not used")
     else:
         haze = scene.turbidity > 1.0
         notes.append(f"{scene.model}: turbidity is a parameter of the fit (no separate haze term)")
