@@ -18,7 +18,7 @@ The layers, low to high (a module may import from its own layer or below):
    :mod:`atmoscatter.render.models`, hence the shared layer) and ``render``: plan,
    directions, model adapters, evaluator, image; ``integrals`` of a rendered sky;
 5. files: ``exr``, ``preview``, ``compare``;
-6. applications: ``batch``, ``weather``, ``cli``.
+6. applications: ``batch``, ``cli``.
 """
 
 from __future__ import annotations
@@ -47,7 +47,6 @@ LAYERS = {
     "solar": 1,
     "colour": 1,
     "cache": 1,
-    "_cache_store": 1,
     "sun": 1,
     "sky": 2,
     "convergence": 3,
@@ -55,12 +54,10 @@ LAYERS = {
     "_scene_checks": 4,
     "render": 4,
     "integrals": 4,
-    "_integrals_sh": 4,
     "exr": 5,
     "preview": 5,
     "compare": 5,
     "batch": 6,
-    "weather": 6,
     "cli": 6,
     "__main__": 6,
 }
