@@ -204,8 +204,10 @@ _MS_PART_TOL = 0.03
     [
         (1.0, 0.3, 6, (0.0, 0.0)),      # thin (tau ~ 0.3 at 440 nm), bright ground
         (1.0, 0.3, 6, (85.0, 180.0)),   # thin, near the horizon toward the sun
-        (10.0, 0.0, 8, (0.0, 0.0)),     # thick (tau ~ 3), zenith
-        (10.0, 0.0, 8, (75.0, 30.0)),   # thick, low sky
+        # the thick field costs ~15 s to build: CI's extended step (DISORT covers thick
+        # layers in the default run)
+        pytest.param(10.0, 0.0, 8, (0.0, 0.0), marks=pytest.mark.extended),    # thick (tau ~ 3), zenith
+        pytest.param(10.0, 0.0, 8, (75.0, 30.0), marks=pytest.mark.extended),  # thick, low sky
     ],
 )
 def test_multiple_scattering_matches_monte_carlo(scale, albedo, orders, view):

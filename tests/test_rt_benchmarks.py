@@ -126,6 +126,8 @@ _CASES = {
            (3.79740e-01, 5.19598e-01, 4.93302e-01), (6.69581e-01, 4.22350e-01, 2.36362e-01)),
 }
 _SLOW = {"2D", "3B"}  # conservative thick layers: many orders, tens of seconds today
+# ~10 s each: run in CI's extended step, out of the default run (3A is the known deviation)
+_EXTENDED = {"1D", "3A"}
 
 
 def _phase(kind):
@@ -230,7 +232,8 @@ def benchmark_table(cases=None):
 @pytest.mark.parametrize(
     "case",
     [pytest.param(c, id=f"{c}: {_CASES[c][0]}",
-                  marks=[pytest.mark.slow] if c in _SLOW else []) for c in _CASES],
+                  marks=[pytest.mark.slow] if c in _SLOW
+                  else [pytest.mark.extended] if c in _EXTENDED else []) for c in _CASES],
 )
 def test_disort_benchmark(case):
     """Total radiance (orders=None) against the DISOTEST.f correct answers, top and bottom.

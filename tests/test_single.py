@@ -566,7 +566,9 @@ def _check_batch_independent(atm, elev, alt, stride, monkeypatch=None):
     assert np.all(big[bright] > 0)
 
 
-@pytest.mark.parametrize("T, elev", [(6.0, 1.0), (10.0, 0.0), (3.0, -6.0), (1.5, -10.0)])
+@pytest.mark.parametrize("T, elev", [(6.0, 1.0), (10.0, 0.0),
+                                     pytest.param(3.0, -6.0, marks=pytest.mark.extended),
+                                     (1.5, -10.0)])
 def test_large_batch_default_matches_reference_quick(T, elev, monkeypatch):
     """Quick CI subset of the sweep below (hazy low suns where the old polynomial table
     failed by up to 140 %, and the twilight table)."""
@@ -745,6 +747,7 @@ def test_vacuum_and_finely_tabulated_profile():
     np.testing.assert_allclose(single_scattering(atm, v, _sun(20)), ref, rtol=1e-4)
 
 
+@pytest.mark.extended
 def test_render_uses_the_twilight_table_for_the_whole_sky(monkeypatch):
     """The renderer calls the model once per batch; the table decision follows the whole
     sky's direction count (at twilight a batch alone is below the threshold, and every
