@@ -115,7 +115,7 @@ GENERATORS: tuple[Generator, ...] = (
         notes="CIE standard and Perez all-weather skies against Radiance (needs pyradiance)"),
     Generator(
         "weather_year", "benchmarks/bench_weather.py", ("--write",), ("--quick",),
-        ("docs/daylighting.md",), "~5-15 min",
+        ("docs/daylighting.md",), "~5 min",
         notes="a year of Perez skies from the test EPW at 256x128: run time (needs pvlib)"),
 )
 
