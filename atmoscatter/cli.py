@@ -6,6 +6,9 @@ Sub-commands
     Render one scene (a TOML/JSON file, or the documented default scene).
 ``atmoscatter batch SCENES -o DIR [--set key=value ...] [--workers N] [--dask | --scheduler ADDRESS]``
     Render many scenes (CSV table or TOML with ``[base]``, ``[[scene]]``, ``[sweep]``).
+``atmoscatter batch --weather FILE.epw -o DIR [--hours SPEC] [--every N] [--set ...]``
+    One Perez all-weather sky per daylit hour of a weather file
+    (:mod:`atmoscatter.batch.weather`).
 ``atmoscatter info FILE.exr [--json]``
     Show the metadata of a sky map.
 ``atmoscatter preview FILE.exr -o sky.png [--exposure X] [--tone T] [--alpha A]``
@@ -82,8 +85,16 @@ def _parser() -> argparse.ArgumentParser:
                    help="no progress bar (shown on a terminal when a render takes over ~2 s)")
     common(r)
 
-    b = sub.add_parser("batch", help="render many scenes (CSV/TOML table or sweep)")
-    b.add_argument("scenes", help="CSV (header: scene fields + name) or TOML batch file")
+    b = sub.add_parser("batch", help="render many scenes (CSV/TOML table, sweep or weather file)")
+    b.add_argument("scenes", nargs="?",
+                   help="CSV (header: scene fields + name) or TOML batch file (or --weather)")
+    w = b.add_argument_group("weather file (one Perez all-weather sky per daylit hour)")
+    w.add_argument("--weather", metavar="FILE.epw",
+                   help="EnergyPlus weather file instead of SCENES (needs atmoscatter[weather])")
+    w.add_argument("--hours", metavar="SPEC",
+                   help="rows N, N-M (1-8760) or dates M/D, M/D-M/D, comma-separated")
+    w.add_argument("--every", type=_count, default=1, metavar="N",
+                   help="every N-th selected hour (default 1)")
     b.add_argument("-o", "--output", required=True, help="output directory")
     b.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                    help="override a field in every scene (repeatable)")
@@ -252,7 +263,31 @@ def _cmd_batch(args, out) -> int:
     from .scene import _parse_assignments  # noqa: PLC0415
 
     overrides = _parse_assignments(args.set)
-    items = load_batch(args.scenes, overrides=overrides)
+    weather, rejected = None, ()
+    if args.weather:
+        if args.scenes:
+            raise ValueError(f"batch takes SCENES or --weather, not both (got {args.scenes!r} "
+                             f"and --weather {args.weather!r})")
+        from .batch.weather import weather_batch, write_weather_table  # noqa: PLC0415
+
+        weather = weather_batch(args.weather, hours=args.hours, every=args.every,
+                                overrides=overrides)
+        for r in weather.rejected:
+            print(f"atmoscatter: bad value: {r.error}", file=sys.stderr)
+        items, rejected = weather.items, weather.rejected
+        if not items and not rejected:
+            raise ValueError(f"{args.weather}: no daylit hour in the selection "
+                             f"({weather.night} night hours)")
+        from ._validate import check_writable_dir  # noqa: PLC0415
+
+        out_dir = check_writable_dir(args.output, name="output directory")
+        write_weather_table(weather, os.path.join(out_dir, "weather_hours.csv"))
+    else:
+        if not args.scenes:
+            raise ValueError("batch needs SCENES (a CSV or TOML batch file) or --weather FILE.epw")
+        if args.hours or args.every != 1:
+            raise ValueError("--hours and --every select hours of a --weather file")
+        items = load_batch(args.scenes, overrides=overrides)
     client = None
     cluster = None
     if args.dask:
@@ -265,17 +300,21 @@ def _cmd_batch(args, out) -> int:
     try:
         summary = run_batch(items, args.output, workers=args.workers, client=client,
                             scheduler=args.scheduler, resume=not args.no_resume,
-                            progress=not args.quiet)
+                            progress=not args.quiet, rejected=rejected)
     except BatchInterrupted as exc:
         global _INTERRUPTED_BATCH
         _INTERRUPTED_BATCH = True
         print(exc.summary.text(), file=out)
+        if weather is not None:
+            print(weather.text(), file=out)
         return 143 if exc.signal_name == "SIGTERM" else 130
     finally:
         if client is not None:
             client.close()
             cluster.close()
     print(summary.text(), file=out)
+    if weather is not None:
+        print(weather.text(), file=out)
     return 0 if summary.ok else 1
 
 

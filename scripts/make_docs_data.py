@@ -113,6 +113,10 @@ GENERATORS: tuple[Generator, ...] = (
         "daylighting", "scripts/daylighting_radiance.py", ("--write",), (),
         ("docs/daylighting.md",), "~1 min",
         notes="CIE standard and Perez all-weather skies against Radiance (needs pyradiance)"),
+    Generator(
+        "weather_year", "benchmarks/bench_weather.py", ("--write",), ("--quick",),
+        ("docs/daylighting.md",), "~5 min",
+        notes="a year of Perez skies from the test EPW at 256x128: run time (needs pvlib)"),
 )
 
 

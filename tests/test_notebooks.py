@@ -27,7 +27,11 @@ REQUIRES = {
     "oracle": ("render", "preetham_sky", "compare_exr", "sh_project"),
     "models": ("render", "plan", "MODELS", "write_exr", "read_exr", "write_preview",
                "preview_array"),
+    "weather_year": ("weather_batch", "run_batch", "read_exr", "latlong_quadrature",
+                     "diffuse_irradiance", "preview_array", "perez_epsilon_bin"),
 }
+#: optional packages a notebook needs beyond the test extra's notebook runner
+OPTIONAL = {"weather_year": ("pvlib", "matplotlib")}
 
 
 def test_every_notebook_is_listed():
@@ -39,6 +43,8 @@ def test_notebook_runs(name, tmp_path, monkeypatch):
     missing = [n for n in REQUIRES[name] if not hasattr(ac, n)]
     if missing:
         pytest.skip(f"atmoscatter lacks {missing} in this checkout")
+    for module in OPTIONAL.get(name, ()):
+        pytest.importorskip(module, reason=f"notebook {name} needs {module}")
     nb = nbformat.read(NOTEBOOKS / f"{name}.ipynb", as_version=4)
     # the kernel must import this checkout's package even when it is not installed
     monkeypatch.setenv("PYTHONPATH", os.pathsep.join(

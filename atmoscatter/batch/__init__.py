@@ -16,11 +16,16 @@ Public objects
     processes, or on a Dask distributed cluster (``client=`` or
     ``scheduler=`` address; optional extra ``atmoscatter[dask]``).
 :class:`BatchResult`, :class:`BatchSummary`
+:func:`weather_batch`, :func:`read_epw`, :func:`write_weather_table`, :class:`WeatherBatch`, :class:`WeatherSite`
+    One Perez all-weather scene per daylit hour of an EnergyPlus weather file, for
+    :func:`run_batch` (:mod:`~atmoscatter.batch.weather`; optional extra
+    ``atmoscatter[weather]``).
 
 Modules, in the order a batch runs: :mod:`~atmoscatter.batch.tables` (reading),
 :mod:`~atmoscatter.batch.job` (one scene: fingerprint, up-to-date check, render),
 :mod:`~atmoscatter.batch.run` (processes, Dask, signals, progress) and
-:mod:`~atmoscatter.batch.results` (what comes back).
+:mod:`~atmoscatter.batch.results` (what comes back); :mod:`~atmoscatter.batch.weather` turns a
+weather file into scenes.
 """
 
 from .job import FINGERPRINT_KEY as FINGERPRINT_KEY
@@ -28,6 +33,8 @@ from .job import scene_fingerprint
 from .results import BatchInterrupted, BatchResult, BatchSummary
 from .run import run_batch
 from .tables import expand_sweep, load_batch
+from .weather import WeatherBatch, WeatherSite, read_epw, weather_batch, write_weather_table
 
 __all__ = ["load_batch", "expand_sweep", "run_batch", "BatchResult", "BatchSummary",
-           "BatchInterrupted", "scene_fingerprint"]
+           "BatchInterrupted", "scene_fingerprint", "weather_batch", "read_epw",
+           "write_weather_table", "WeatherBatch", "WeatherSite"]

@@ -168,7 +168,8 @@ def _isatty(stream) -> bool:
 
 
 def run_batch(items, out_dir, *, workers: int = 1, client=None, scheduler: str | None = None,
-              resume: bool = True, progress=True, batch_size: int | None = None) -> BatchSummary:
+              resume: bool = True, progress=True, batch_size: int | None = None,
+              rejected=()) -> BatchSummary:
     """Render ``items`` (``[(name, fields)]`` from :func:`load_batch`) into ``out_dir``.
 
     Parameters
@@ -196,6 +197,10 @@ def run_batch(items, out_dir, *, workers: int = 1, client=None, scheduler: str |
         scene.  ``False``/``None``: silent.
     batch_size : int, optional
         Directions per model call inside each render.
+    rejected : sequence of BatchResult, optional
+        Scenes refused before rendering (e.g. weather hours with missing values,
+        :func:`~atmoscatter.batch.weather.weather_batch`): reported as given (``failed``)
+        after the rendered ones, in the summary and ``batch_summary.json``; never rendered.
 
     Returns
     -------
@@ -255,7 +260,7 @@ def run_batch(items, out_dir, *, workers: int = 1, client=None, scheduler: str |
                 results[name] = BatchResult(
                     name, path, "done" if _up_to_date(path, fields) else "unfinished")
 
-    ordered = [results[n] for n, _ in items if n in results]
+    ordered = [results[n] for n, _ in items if n in results] + list(rejected)
     summary = BatchSummary(ordered, time.perf_counter() - t0, interrupted=stopped)
     from ..exr import atomic_write  # noqa: PLC0415
 
