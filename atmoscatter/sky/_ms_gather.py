@@ -110,7 +110,7 @@ def _kernels():
     if k is None:  # pragma: no cover - numba is a declared dependency
         return None
     return {"locate_rows": k._locate_rows, "gather_log": k._gather_log,
-            "sun_transmittance": k.sun_transmittance}
+            "sun_transmittance": k.sun_transmittance, "march_weights": k.march_weights}
 
 
 def have_kernel() -> bool:
@@ -150,6 +150,19 @@ def gather(table, h_nodes, th_nodes, mu_nodes, h, mus, mu, cphi, wt, *, threads=
         return np.concatenate(list(pool.map(part, range(0, N, step))), axis=0)
 
 
+def pack_weights(wt, N: int, M: int):
+    """``(index, start, packed)`` of the samples of (N, M, C) weights ``wt`` that are non-zero
+    in some channel: flat sample indices, ray offsets (N + 1,) and the packed (K, C) weights
+    (see :class:`Located`).  Rays that share their weights (the grid's node rays at one
+    altitude, for every solar zenith angle) are packed once."""
+    wt = np.asarray(wt).reshape(N, M, -1)
+    keep = np.any(wt != 0, axis=-1)
+    index = np.flatnonzero(keep)
+    start = np.zeros(N + 1, dtype=np.int64)
+    np.cumsum(np.count_nonzero(keep, axis=1), out=start[1:])
+    return index, start, np.ascontiguousarray(wt.reshape(N * M, -1)[index])
+
+
 class Located:
     """Interpolation coordinates and weights of a set of marched samples on one field
     grid, computed once and reused for every order (the node rays of the field are
@@ -160,19 +173,19 @@ class Located:
     the shorter ones are padded with empty panels); they contribute exactly nothing to
     the sums, so leaving them out changes no value.  The kept samples of ray ``n`` are
     ``start[n] ≤ s < start[n + 1]``, in their order along the ray: ``base`` (K,) int32
-    rows, ``frac`` (K, 4) float32 fractions, ``wt`` (K, C) weights (dtype of the input).
+    rows, ``frac`` (K, 4) float32 fractions, ``wt`` (K, C) weights (dtype of the input;
+    ``packed``: the result of :func:`pack_weights` for ``wt``, if already computed — the
+    packed weights are then shared, not copied).
     """
 
-    def __init__(self, shape_out, h_nodes, th_nodes, mu_nodes, h, mus, mu, cphi, wt):
+    def __init__(self, shape_out, h_nodes, th_nodes, mu_nodes, h, mus, mu, cphi, wt, packed=None):
         n_h, n_s, n_mu, n_phi = shape_out
         self.shape_out = shape_out
         self.th_nodes = np.ascontiguousarray(th_nodes, dtype=np.float64)
         N, M = h.shape
-        wt = np.asarray(wt).reshape(N, M, -1)
-        keep = np.any(wt != 0, axis=-1)
-        index = np.flatnonzero(keep)
-        self.start = np.zeros(N + 1, dtype=np.int64)
-        np.cumsum(np.count_nonzero(keep, axis=1), out=self.start[1:])
+        if packed is None:
+            packed = pack_weights(wt, N, M)
+        index, self.start, self.wt = packed
         K = index.size
         base = np.empty((K, 1), dtype=np.int64)
         frac = np.empty((K, 1, 4))
@@ -182,7 +195,6 @@ class Located:
         _kernels()["locate_rows"](n_s, n_mu, n_phi, *nodes, *samples, base, frac)
         self.base = base.reshape(K).astype(np.int32)
         self.frac = frac.reshape(K, 4).astype(np.float32)
-        self.wt = np.ascontiguousarray(wt.reshape(N * M, -1)[index])
 
     def gather(self, logt):
         """``Σ_m wt[n, m, c] exp(log S_c(sample))`` → (N, C) for the log table ``logt``

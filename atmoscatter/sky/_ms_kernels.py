@@ -180,3 +180,55 @@ def sun_transmittance(h_nodes, tau, R, top, h, mus, out):  # pragma: no cover - 
             _tau_up_one(h_nodes, tau, nx, hh, -m, -1.0, acc)
         for w in range(nwl):
             out[n, w] = np.exp(-max(acc[w], 0.0))
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def march_weights(plen, rho, ext, smat, wq, weights, sc_group, sc_beta, wt, tau_end):  # pragma: no cover
+    """Quadrature weights × view transmittance × scattering coefficient of marched rays:
+    the compiled twin of the optical-depth part of :func:`multiple._march`.
+
+    ``plen`` (N, P) panel lengths, ``rho`` (G, N, P·q) relative densities per profile at the
+    nodes, ``ext`` (G, nwl) extinction at density 1, ``smat`` (q, q) and ``wq`` (q,) the unit
+    panel's integration matrix and Gauss weights, ``weights`` (N, P·q) the nodes' quadrature
+    weights, ``sc_group`` (nsc,) and ``sc_beta`` (nsc, nwl) the scatterers' profile and
+    scattering coefficient.  Writes ``wt`` (N, P·q, nsc, nwl) =
+    ``weights · ρ_g(i) · β_i · exp(−τ)`` with ``τ`` the optical depth from the ray's start
+    to the node (whole earlier panels plus the node's share of its own), and ``tau_end``
+    (N, nwl), the optical depth of the whole ray.
+    """
+    N, P = plen.shape
+    G, nwl = ext.shape
+    q = wq.shape[0]
+    nsc = sc_group.shape[0]
+    base = np.empty(nwl)
+    part = np.empty(G)
+    whole = np.empty(G)
+    for n in range(N):
+        for w in range(nwl):
+            base[w] = 0.0
+        for p in range(P):
+            L = plen[n, p]
+            for g in range(G):
+                acc = 0.0
+                for j in range(q):
+                    acc += wq[j] * rho[g, n, p * q + j]
+                whole[g] = L * acc
+            for k in range(q):
+                m = p * q + k
+                for g in range(G):
+                    acc = 0.0
+                    for j in range(q):
+                        acc += smat[k, j] * rho[g, n, p * q + j]
+                    part[g] = L * acc
+                for w in range(nwl):
+                    tau = base[w]
+                    for g in range(G):
+                        tau += part[g] * ext[g, w]
+                    t = np.exp(-tau)
+                    for i in range(nsc):
+                        wt[n, m, i, w] = weights[n, m] * rho[sc_group[i], n, m] * t * sc_beta[i, w]
+            for w in range(nwl):
+                for g in range(G):
+                    base[w] += whole[g] * ext[g, w]
+        for w in range(nwl):
+            tau_end[n, w] = base[w]

@@ -92,6 +92,7 @@ from ._ms_gather import gather as _gather_kernel
 from ._ms_gather import have_kernel as _have_kernel
 from ._ms_gather import kernel as _ms_kernel
 from ._ms_gather import log_table as _log_table
+from ._ms_gather import pack_weights as _pack_weights
 from ._single_rules import _Batch, _extinction_scale
 from ._sky_table import _SkyTable
 from .single import TABLE_THRESHOLD, _prepare_inputs, single_scattering
@@ -209,7 +210,8 @@ class _March:
     mus_end: np.ndarray  # (N,) sun zenith cosine at the end point
 
 
-def _ms_view_bounds(b: _Batch, m: int = 1) -> np.ndarray:
+def _ms_view_bounds(atm: qd.PreparedAtmosphere, sa: np.ndarray, sb: np.ndarray, p2: np.ndarray,
+                    m: int = 1) -> np.ndarray:
     """Panel boundaries along a view ray for integrals of a *smooth* source.
 
     The single-scattering rule (:func:`atmoscatter.sky._single_rules._graded_view_bounds`) also
@@ -221,8 +223,6 @@ def _ms_view_bounds(b: _Batch, m: int = 1) -> np.ndarray:
     than the local density scale and extinction length), with profile breakpoints and the
     view ray's optical-depth levels as extra boundaries.
     """
-    atm = b.atm
-    sa, sb, p2 = b.sa, b.sb, b.p2
     c = np.clip(0.0, sa, sb)
     hmin = float(np.min(atm.scales)) if atm.scales.size else atm.top_radius - atm.planet_radius
 
@@ -250,49 +250,97 @@ def _ms_view_bounds(b: _Batch, m: int = 1) -> np.ndarray:
     return qd.compact_bounds(np.concatenate([sa[:, None], bounds, sb[:, None]], axis=-1))
 
 
-def _march(atm: qd.PreparedAtmosphere, r0: float, v: np.ndarray, s: np.ndarray, q: int) -> _March:
-    b = _Batch(atm, r0, v, s)
+@dataclass
+class _ViewMarch:
+    """The part of a march that does not depend on the sun: the nodes along the view rays,
+    their weights × view transmittance × β_s ρ, and where the rays end.  The grid's node
+    rays at one altitude are the same for every solar zenith angle, so they are marched
+    once per altitude and combined with each sun direction by :func:`_march_sun`."""
+
+    atm: qd.PreparedAtmosphere
+    r0: float
+    v: np.ndarray  # (N, 3)
+    sigma: np.ndarray  # (N, M) coordinate of the nodes along the ray (0 at the perigee)
+    rr: np.ndarray  # (N, M) radius of the nodes
+    s0: np.ndarray  # (N,) coordinate of the observer
+    p2: np.ndarray  # (N,) squared impact parameter
+    sb: np.ndarray  # (N,) coordinate of the ray's end
+    wt: np.ndarray  # (N, M, n_sc, nwl)
+    h: np.ndarray  # (N, M)
+    mu: np.ndarray  # (N, M)
+    ground: np.ndarray  # (N,)
+    t_end: np.ndarray  # (N, nwl)
+
+
+def _march_view(atm: qd.PreparedAtmosphere, r0: float, v: np.ndarray, q: int,
+                use_kernel: bool = True) -> _ViewMarch:
     n = v.shape[0]
     nwl = atm.n_wavelengths
     nsc = len(atm.scatterers)
     R = atm.planet_radius
-    bounds = _ms_view_bounds(b)
+    p2, s0, sa, sb = qd.view_segments(r0, v, atm.planet_radius, atm.top_radius)
+    bounds = _ms_view_bounds(atm, sa, sb, p2)
     sigma, weights, plen = qd.panel_rule(bounds, q)
     npan = plen.shape[1]
-    h = b.altitude(sigma)
-    tau = np.zeros(sigma.shape + (nwl,))
-    tau_end = np.zeros((n, nwl))
-    rho = []
-    for g in range(len(atm.profiles)):
-        r = atm.density(g, h)
-        rho.append(r)
-        cum, total = qd.cumulative_panel_integral(plen, r.reshape(n, npan, q), q)
-        tau += np.multiply.outer(cum, atm.extinction[g])
-        tau_end += total[:, None] * atm.extinction[g]
-    trans = np.exp(np.negative(tau, out=tau))
+    rr = np.sqrt(p2[:, None] + sigma * sigma)
+    h = rr - R
+    rho = [atm.density(g, h) for g in range(len(atm.profiles))]
     wt = np.empty((n, sigma.shape[1], nsc, nwl))
-    for i, (g, beta, _) in enumerate(atm.scatterers):
-        np.multiply((weights * rho[g])[..., None] * trans, beta, out=wt[:, :, i, :])
-    rr = np.sqrt(b.p2[:, None] + sigma * sigma)
+    kern = _ms_kernel("march_weights") if use_kernel else None
+    if kern is not None and nsc and n:
+        # one compiled pass: optical depth along the ray, transmittance and weights
+        # (the NumPy lines below compute the same, with more temporaries)
+        tau_end = np.empty((n, nwl))
+        _, wq = qd.gauss_legendre_unit(q)
+        kern(np.ascontiguousarray(plen, dtype=float), np.ascontiguousarray(np.stack(rho)),
+             np.ascontiguousarray(atm.extinction, dtype=float), qd.integration_matrix_unit(q),
+             np.ascontiguousarray(wq, dtype=float), np.ascontiguousarray(weights, dtype=float),
+             np.array([g for g, _, _ in atm.scatterers], dtype=np.int64),
+             np.ascontiguousarray(np.stack([beta for _, beta, _ in atm.scatterers]), dtype=float),
+             wt, tau_end)
+    else:
+        tau = np.zeros(sigma.shape + (nwl,))
+        tau_end = np.zeros((n, nwl))
+        for g in range(len(atm.profiles)):
+            cum, total = qd.cumulative_panel_integral(plen, rho[g].reshape(n, npan, q), q)
+            tau += np.multiply.outer(cum, atm.extinction[g])
+            tau_end += total[:, None] * atm.extinction[g]
+        trans = np.exp(np.negative(tau, out=tau))
+        for i, (g, beta, _) in enumerate(atm.scatterers):
+            np.multiply((weights * rho[g])[..., None] * trans, beta, out=wt[:, :, i, :])
     mu = np.clip(sigma / rr, -1.0, 1.0)
-    t = sigma - b.s0[:, None]
-    mus = np.clip((r0 * s[2] + t * b.nu[:, None]) / rr, -1.0, 1.0)
-    den = np.sqrt(np.maximum((1.0 - mu * mu) * (1.0 - mus * mus), 0.0))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        cphi = np.where(den > 1e-12, (b.nu[:, None] - mu * mus) / np.where(den > 1e-12, den, 1.0), 1.0)
-    cphi = np.clip(cphi, -1.0, 1.0)
     # end of the ray on the ground?
     mu0 = v[:, 2]
     if r0 <= R * (1.0 + 1e-12):
         ground = mu0 < 0.0  # on the ground looking down: the ground itself, no path
     else:
-        ground = (b.sb > b.sa) & (mu0 < 0.0) & (b.p2 < R * R) & np.isclose(
-            np.sqrt(b.p2 + b.sb * b.sb), R, rtol=1e-9, atol=1e-3
+        ground = (sb > sa) & (mu0 < 0.0) & (p2 < R * R) & np.isclose(
+            np.sqrt(p2 + sb * sb), R, rtol=1e-9, atol=1e-3
         )
-    r_end = np.sqrt(b.p2 + b.sb * b.sb)
-    t_e = b.sb - b.s0
-    mus_end = np.clip((r0 * s[2] + t_e * b.nu) / np.maximum(r_end, 1.0), -1.0, 1.0)
-    return _March(wt, h, mu, mus, cphi, ground, np.exp(-tau_end), mus_end)
+    return _ViewMarch(atm, r0, v, sigma, rr, s0, p2, sb, wt, h, mu, ground, np.exp(-tau_end))
+
+
+def _march_sun(vm: _ViewMarch, s: np.ndarray) -> _March:
+    """Complete a view march with the sun direction ``s``: local sun zenith cosine and
+    relative azimuth at every node, and the sun's zenith cosine where the ray ends."""
+    nu = np.clip(vm.v @ s, -1.0, 1.0)
+    t = vm.sigma - vm.s0[:, None]
+    mu = vm.mu
+    mus = np.clip((vm.r0 * s[2] + t * nu[:, None]) / vm.rr, -1.0, 1.0)
+    den = np.sqrt(np.maximum((1.0 - mu * mu) * (1.0 - mus * mus), 0.0))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        cphi = np.where(den > 1e-12, (nu[:, None] - mu * mus) / np.where(den > 1e-12, den, 1.0), 1.0)
+    cphi = np.clip(cphi, -1.0, 1.0)
+    r_end = np.sqrt(vm.p2 + vm.sb * vm.sb)
+    t_e = vm.sb - vm.s0
+    mus_end = np.clip((vm.r0 * s[2] + t_e * nu) / np.maximum(r_end, 1.0), -1.0, 1.0)
+    return _March(vm.wt, vm.h, mu, mus, cphi, vm.ground, vm.t_end, mus_end)
+
+
+def _march(atm: qd.PreparedAtmosphere, r0: float, v: np.ndarray, s: np.ndarray, q: int,
+           use_kernel: bool = True) -> _March:
+    """Nodes, weights and geometry of view rays ``v`` from radius ``r0`` for the sun ``s``."""
+    return _march_sun(_march_view(atm, r0, v, q, use_kernel), s)
 
 
 class _SunTransmittance:
@@ -554,13 +602,30 @@ class _FieldState:
 
         self.sun_t = sun_t = _SunTransmittance(atm)
 
+        # the node rays at one altitude are the same for every solar zenith angle: their
+        # march (nodes, weights, view transmittance) is done once per altitude, and so is
+        # the packing of the weights that later orders keep
+        views = {}
+
+        def view(i):
+            dirs = field.directions(field.mu_q[i])
+            vm = _march_view(atm, atm.planet_radius + field.h_nodes[i], dirs, grid.order)
+            # samples with weight (the rest of the (N, M) batch pads the shorter rays)
+            keep = np.any(vm.wt != 0, axis=(-2, -1))
+            packed = None
+            if self.keep and _have_kernel():
+                N, M = vm.h.shape
+                packed = _pack_weights(np.asarray(vm.wt, dtype=np.float32), N, M)
+            views[i] = (dirs, vm, keep, packed)
+
+        _run_cells(view, list(range(n_r)), "multiple scattering: view rays")
+
         def first(cell):
             i, j = cell
-            r0 = atm.planet_radius + field.h_nodes[i]
             th = field.ths[j]
             s = np.array([np.sin(th), 0.0, np.cos(th)])
-            dirs = field.directions(field.mu_q[i])
-            mc = _march(atm, r0, dirs, s, grid.order)
+            dirs, vm, keep, packed = views[i]
+            mc = _march_sun(vm, s)
             # order 1: single scattering of the tabulated sun transmittance (the phase
             # function is constant along a straight ray) + ground-reflected direct sun
             P = np.stack([np.asarray(ph(np.clip(dirs @ s, -1.0, 1.0)), dtype=float)
@@ -568,9 +633,8 @@ class _FieldState:
             # Σ_m Σ_i w T p_i, as (N, M, nwl) products then a BLAS-free sum over the
             # samples (a three-operand einsum here is several times slower)
             wp = np.einsum("nmiw,ni->nmw", mc.wt, P, optimize=True)
-            # the sun's transmittance where a sample has weight (the rest of the (N, M)
-            # batch is padding of shorter rays: 0 there, as its product with wp already was)
-            keep = np.any(wp != 0, axis=-1)
+            # the sun's transmittance where a sample has weight (0 elsewhere, as its
+            # product with wp already was)
             tsun = np.zeros_like(wp)
             tsun[keep] = sun_t(mc.h[keep], mc.mus[keep])
             path = np.einsum("nmw,nmw->nw", wp, tsun)
@@ -580,9 +644,10 @@ class _FieldState:
                 path += np.where(mc.ground[:, None], mc.t_end * albedo / np.pi * e0, 0.0)
             L[i, j] = path.reshape(n_mu, n_phi, nwl)
             if self.keep:
-                self.marches[i, j] = _compact(field, mc)
+                self.marches[i, j] = _compact(field, mc, packed)
 
         _run_cells(first, cells, "multiple scattering: order 1")
+        views.clear()  # the packed weights live on in the kept marches
         self.W = field.phase_matrices()  # (n_alt, nsc, n_out, ndir)
         self.L = L  # field of the highest order computed so far
         self.S: list[np.ndarray] = []  # S^1, S^2, ...
@@ -702,17 +767,19 @@ class _Compact:
     mus_end: np.ndarray
 
 
-def _compact(field: _Field, mc: _March):
+def _compact(field: _Field, mc: _March, packed=None):
     """Keep what later orders need of a node march — the located samples with non-zero
     weight (about half of the batch; the rest pads the shorter rays) and their float32
-    weights, about 1/6 of the march's memory — or the march itself where no compiled
-    kernel is available."""
+    weights, about 1/6 of the march's memory (``packed``: the weights already packed by
+    :func:`._ms_gather.pack_weights`, shared by the cells of one altitude) — or the march
+    itself where no compiled kernel is available."""
     if not _have_kernel():
         return mc
     N, M = mc.h.shape
-    wt = np.ascontiguousarray(mc.wt.reshape(N, M, -1), dtype=np.float32)
+    if packed is None:
+        packed = _pack_weights(np.asarray(mc.wt, dtype=np.float32), N, M)
     loc = _Located(field.shape_out, field.h_nodes, field.ths, field.mu_out,
-                   mc.h, mc.mus, mc.mu, mc.cphi, wt)
+                   mc.h, mc.mus, mc.mu, mc.cphi, None, packed=packed)
     return _Compact(loc, mc.ground, mc.t_end, mc.mus_end)
 
 
