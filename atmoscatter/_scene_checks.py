@@ -27,7 +27,7 @@ PROJECTIONS = ("latlong", "cubemap", "fisheye", "dome")
 OUTPUTS = ("rgb", "xyz", "luminance", "spectral")
 SAMPLINGS = ("auto", "rgb", "spectral")
 PRECISIONS = ("half", "float")
-TONES = ("exponential", "reinhard", "clip")
+TONES = ("exponential", "reinhard", "clip", "luminance")
 SYMMETRY = ("auto", "on", "off")
 ATMOSPHERES = ("earth", "earth_no_ozone", "mars", "keller_bohn")
 

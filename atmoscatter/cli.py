@@ -117,8 +117,9 @@ def _parser() -> argparse.ArgumentParser:
     v.add_argument("file", help="EXR sky map")
     v.add_argument("-o", "--output", required=True, help="output PNG file")
     v.add_argument("--exposure", type=float, default=None, help="[m^2/cd]; default automatic")
-    v.add_argument("--tone", choices=["exponential", "reinhard", "clip"], default=None,
-                   help="tone curve (default: the scene's, else exponential)")
+    v.add_argument("--tone", choices=["exponential", "reinhard", "clip", "luminance"],
+                   default=None, help="tone curve (default: the scene's, else exponential; "
+                   "luminance keeps each colour's chromaticity)")
     v.add_argument("--alpha", choices=["none", "mask", "sky"], default="none",
                    help="PNG alpha: none, the map's mask, or seed 002's (r+g+b)^transparency")
     v.add_argument("--transparency", type=float, default=0.5,

@@ -141,7 +141,9 @@ class Scene:
         Preview exposure [m² cd⁻¹]; ``None`` chooses one from the image.
     tone : str
         Preview tone curve: ``exponential`` (seed 002 ``1 − e^{−exposure·L}``),
-        ``reinhard`` or ``clip``.
+        ``reinhard`` or ``clip`` (each RGB channel on its own), or ``luminance`` (the
+        exponential curve of the luminance, chromaticity kept; see
+        :func:`atmoscatter.preview.tone_map`).
     symmetry : str
         Mirror symmetry about the solar vertical: ``auto`` (use it where it
         saves work), ``on`` or ``off``.

@@ -106,9 +106,10 @@ GENERATORS: tuple[Generator, ...] = (
         ("docs/validation.md", "docs/validation/models.csv", "docs/validation/*.png"),
         "~3 min", notes="analytic models against the physical reference; sun against pvlib"),
     Generator(
-        "gallery", "scripts/gallery.py", (), ("--scale", "0.125", "--out", "{out}"),
-        ("docs/gallery.md", "docs/gallery/*.png"), "~10 min",
-        notes="the gallery, rendered by the package"),
+        "gallery", "scripts/gallery.py", (), ("--quick", "--out", "{out}"),
+        ("docs/gallery.md", "docs/gallery/*.png"), "~20 min CPU",
+        notes="the gallery at physical exposure (quick: one tiny frame per series; its cost "
+              "is the multiple-scattering field builds not yet in the disk cache)"),
     Generator(
         "daylighting", "scripts/daylighting_radiance.py", ("--write",), (),
         ("docs/daylighting.md",), "~1 min",

@@ -181,7 +181,8 @@ class TestAtomic:
 
 
 def _read_png(path):
-    """Minimal independent PNG decoder for 8-bit, filter-0 images (what write_png makes)."""
+    """Minimal independent PNG decoder for 8-bit images with any of the five row filters
+    (PNG specification, 2nd ed., section 9.2; undone byte by byte as written there)."""
     data = open(path, "rb").read()
     assert data[:8] == b"\x89PNG\r\n\x1a\n"
     pos, chunks = 8, {}
@@ -197,8 +198,28 @@ def _read_png(path):
     w, h, depth, ctype = struct.unpack(">IIBB", chunks[b"IHDR"][:10])
     c = {0: 1, 2: 3, 6: 4}[ctype]
     raw = np.frombuffer(zlib.decompress(chunks[b"IDAT"]), dtype=np.uint8).reshape(h, 1 + w * c)
-    assert np.all(raw[:, 0] == 0)
-    return raw[:, 1:].reshape(h, w, c)
+    assert np.all(raw[:, 0] <= 4)
+    out = [[0] * (w * c) for _ in range(h)]
+    for y in range(h):
+        kind, row = int(raw[y, 0]), raw[y, 1:].tolist()
+        for i in range(w * c):
+            a = out[y][i - c] if i >= c else 0
+            b = out[y - 1][i] if y > 0 else 0
+            cc = out[y - 1][i - c] if (y > 0 and i >= c) else 0
+            if kind == 0:
+                pred = 0
+            elif kind == 1:
+                pred = a
+            elif kind == 2:
+                pred = b
+            elif kind == 3:
+                pred = (a + b) // 2
+            else:
+                p = a + b - cc
+                pa, pb, pc = abs(p - a), abs(p - b), abs(p - cc)
+                pred = a if pa <= pb and pa <= pc else (b if pb <= pc else cc)
+            out[y][i] = (row[i] + pred) % 256
+    return np.array(out, dtype=np.uint8).reshape(h, w, c)
 
 
 class TestPreview:
