@@ -303,7 +303,7 @@ def page(all_series: list[Series], cpu: float, wall: float, command: str) -> str
                     else "n/a")
             shown = "sky half of a " if r["crop"] else ""
             lines.append(f"- *{r['label']}*: {shown}{f['projection']} {f['width']}×{f['height']}, "
-                         f"{desc}; sampling {samp} (plan: {p.sampling_reason.split(';')[0]}); "
+                         f"{desc}; sampling {samp} (plan: {p.sampling_reason}); "
                          f"rendered in {r['cpu']:.1f} s CPU.")
         lines.append("")
     lines += [
