@@ -72,6 +72,19 @@ CHECKED_PAGES: dict[str, dict[str, str]] = {
         "6×": "the issue's speed target, not a measurement",
     },
     "integrals.md": {},
+    "aerial_perspective.md": {
+        "2.545e25": "constant: molecular number density of errata 000.4 [m⁻³]",
+        "6.95e-6": "constant: seed 000's air scattering at 650 nm (errata 000.4)",
+        "1.18e-5": "constant: seed 000's air scattering at 570 nm (errata 000.4)",
+        "2.44e-5": "constant: seed 000's air scattering at 475 nm (errata 000.4)",
+        "1.2e-4": "constant: seed 000's heavy-haze table",
+        "1.1e-3": "constant: seed 000's light-fog table",
+    },
+    "theory/analytic.md": {
+        "6.95e-6": "constant: seed 000's air scattering at 650 nm (errata 000.4)",
+        "1.18e-5": "constant: seed 000's air scattering at 570 nm (errata 000.4)",
+        "2.44e-5": "constant: seed 000's air scattering at 475 nm (errata 000.4)",
+    },
     "oracle.md": {},
     "user_guide.md": {
         "1.2e-4": "input: the exposure of the model pictures [m² cd⁻¹]",
