@@ -111,8 +111,9 @@ GENERATORS: tuple[Generator, ...] = (
         notes="measured numbers of the integrals, analytic-sky, sun, oracle and render pages"),
     Generator(
         "validation_report", "scripts/validation_report.py", (), ("--quick", "--out", "{out}"),
-        ("docs/validation.md", "docs/validation/models.csv", "docs/validation/*.png"),
-        "~3 min", notes="analytic models against the physical reference; sun against pvlib"),
+        ("docs/validation.md", "docs/validation/models.csv", "docs/validation/brightness.csv",
+         "docs/validation/*.png"),
+        "~60 min", notes="analytic models against the physical reference; sun against pvlib"),
     Generator(
         "gallery", "scripts/gallery.py", (), ("--scale", "0.125", "--out", "{out}"),
         ("docs/gallery.md", "docs/gallery/*.png"), "~10 min",

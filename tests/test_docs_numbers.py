@@ -142,6 +142,8 @@ def test_every_include_exists_and_is_generated():
     missing, orphan = [], []
     for page in _pages():
         for inc in INCLUDE.findall(page.read_text(encoding="utf-8")):
+            # pymdownx.snippets selectors: "file.md:section" or "file.md:3:9"
+            inc = re.sub(r"(\.\w+):[^/]*$", r"\1", inc)
             rel = f"docs/{inc}"
             if not (DOCS / inc).is_file():
                 missing.append(f"{page.relative_to(ROOT)} includes {inc}")
