@@ -1,6 +1,8 @@
 """Peak memory of big renders against the size of their output (issue 11, deliverable 3).
 
 Run:   python benchmarks/bench_memory.py            (8192 × 4096: RGB, RGBA, half RGB; minutes)
+Docs:  python benchmarks/bench_memory.py --out docs/theory/render_memory.md   (the fragment
+       docs/theory/render.md includes; scripts/make_docs_data.py runs it)
 Quick: python benchmarks/bench_memory.py --quick    (2048 × 1024; CI runs it through pytest:
        python -m pytest benchmarks/bench_memory.py --benchmark-disable)
 
@@ -91,9 +93,12 @@ def table(width: int, height: int, cases=CASES) -> str:
     import platform  # noqa: PLC0415
 
     rows = measure(width, height, cases)
+    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
     lines = [f"Peak RSS of `atmoscatter render --set width={width} --set height={height} "
              f"[--set …] -o map.exr --workers 2`, {datetime.date.today().isoformat()}, "
-             f"{platform.machine()}, {os.cpu_count()} CPUs (`python benchmarks/bench_memory.py`):",
+             f"{platform.machine()}, {os.cpu_count()} CPUs, load average {load:.1f}, "
+             f"Python {platform.python_version()} (`python benchmarks/bench_memory.py`; "
+             f"generated, do not edit):",
              "", "| case | peak RSS | output (float32 planes) | peak / output | fixed footprint "
              "(64 × 32) | size-dependent rest | per pixel |",
              "| --- | --- | --- | --- | --- | --- | --- |"]
@@ -124,9 +129,16 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=main.__doc__)
     ap.add_argument("--quick", action="store_true", help="2048 x 1024 (smoke test)")
     ap.add_argument("--size", nargs=2, type=int, metavar=("W", "H"), default=None)
+    ap.add_argument("--out", default=None,
+                    help="also write the table to this Markdown file (the docs fragment)")
     args = ap.parse_args(argv)
     w, h = args.size or ((2048, 1024) if args.quick else (8192, 4096))
-    print(table(w, h))
+    text = table(w, h)
+    print(text)
+    if args.out:
+        os.makedirs(os.path.dirname(os.path.abspath(args.out)), exist_ok=True)
+        with open(args.out, "w", encoding="utf-8") as f:
+            f.write(text + "\n")
     return 0
 
 

@@ -102,14 +102,27 @@ GENERATORS: tuple[Generator, ...] = (
         "startup", "benchmarks/bench_startup.py", ("--write",), ("--quick",),
         ("docs/cli.md",), "~1 min", notes="start-up and first-render times of the CLI"),
     Generator(
+        "memory", "benchmarks/bench_memory.py", ("--out", "docs/theory/render_memory.md"),
+        ("--quick", "--out", "{out}/render_memory.md"), ("docs/theory/render_memory.md",),
+        "~5 min", notes="peak memory of 8192 x 4096 renders against their output"),
+    Generator(
+        "docs_numbers", "scripts/docs_numbers.py", (), ("--quick", "--out", "{out}"),
+        ("docs/numbers/*.md",), "~10 min",
+        notes="measured numbers of the integrals, analytic-sky, sun, oracle and render pages"),
+    Generator(
         "validation_report", "scripts/validation_report.py", (), ("--quick", "--out", "{out}"),
-        ("docs/validation.md", "docs/validation/models.csv", "docs/validation/*.png"),
-        "~3 min", notes="analytic models against the physical reference; sun against pvlib"),
+        ("docs/validation.md", "docs/validation/models.csv", "docs/validation/brightness.csv",
+         "docs/validation/*.png"),
+        "~60 min", notes="analytic models against the physical reference; sun against pvlib"),
     Generator(
         "gallery", "scripts/gallery.py", (), ("--quick", "--out", "{out}"),
         ("docs/gallery.md", "docs/gallery/*.png"), "~20 min CPU",
         notes="the gallery at physical exposure (quick: one tiny frame per series; its cost "
               "is the multiple-scattering field builds not yet in the disk cache)"),
+    Generator(
+        "user_guide_images", "scripts/user_guide_images.py", (), ("--quick", "--out", "{out}"),
+        ("docs/images/*.png",), "~10 min",
+        notes="the pictures of the user guide (projections, one exposure for every model)"),
     Generator(
         "daylighting", "scripts/daylighting_radiance.py", ("--write",), (),
         ("docs/daylighting.md",), "~1 min",
