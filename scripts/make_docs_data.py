@@ -2,7 +2,7 @@
 
 Usage (from the repository root)::
 
-    python scripts/make_docs_data.py                  # full: rewrite docs/ and atmoscatter/data/
+    python scripts/make_docs_data.py                  # full: rewrite docs/, atmoscatter/data/, notebooks/
     python scripts/make_docs_data.py --with-ms-study  # also the multiple-scattering study (~45 min)
     python scripts/make_docs_data.py --quick --out DIR  # CI: every generator's quick mode, into DIR
     python scripts/make_docs_data.py --list           # the generators, their outputs and cost
@@ -113,6 +113,10 @@ GENERATORS: tuple[Generator, ...] = (
         "daylighting", "scripts/daylighting_radiance.py", ("--write",), (),
         ("docs/daylighting.md",), "~1 min",
         notes="CIE standard and Perez all-weather skies against Radiance (needs pyradiance)"),
+    Generator(
+        "notebooks", "scripts/run_notebooks.py", (), ("--quick", "--out", "{out}"),
+        ("notebooks/*.ipynb",), "~15 min",
+        notes="executes notebooks/*.ipynb and stores their outputs (quick: the cheap ones)"),
 )
 
 
