@@ -2,7 +2,7 @@
 
 Usage (from the repository root)::
 
-    python scripts/make_docs_data.py                  # full: rewrite docs/ and atmoscatter/data/
+    python scripts/make_docs_data.py                  # full: rewrite docs/, atmoscatter/data/, notebooks/
     python scripts/make_docs_data.py --with-ms-study  # also the multiple-scattering study (~45 min)
     python scripts/make_docs_data.py --quick --out DIR  # CI: every generator's quick mode, into DIR
     python scripts/make_docs_data.py --list           # the generators, their outputs and cost
@@ -131,6 +131,10 @@ GENERATORS: tuple[Generator, ...] = (
         "weather_year", "benchmarks/bench_weather.py", ("--write",), ("--quick",),
         ("docs/daylighting.md",), "~5 min",
         notes="a year of Perez skies from the test EPW at 256x128: run time (needs pvlib)"),
+    Generator(
+        "notebooks", "scripts/run_notebooks.py", (), ("--quick", "--out", "{out}"),
+        ("notebooks/*.ipynb",), "~15 min",
+        notes="executes notebooks/*.ipynb and stores their outputs (quick: the cheap ones)"),
 )
 
 
