@@ -209,10 +209,12 @@ def test_precompute_progress_shows_each_multiple_scattering_order(monkeypatch):
             ac.multiple_scattering(ac.earth_atmosphere(), [[0.0, 0.0, 1.0]], [0.0, 0.6, 0.8],
                                    orders=4, grid=grid)
     assert not _progress.active()
+    # first the node rays of each of the 4 altitudes are marched (shared by every sun);
     # orders=4: the fields of orders 1-3 are built (the gather adds the last order);
     # 4 altitudes × 6 suns = 24 cells each, every cell reported once
     stages = [f"multiple scattering: order {k}" for k in (1, 2, 3)]
-    assert list(dict.fromkeys(a[0] for a in seen)) == stages
+    assert list(dict.fromkeys(a[0] for a in seen)) == ["multiple scattering: view rays"] + stages
+    assert sorted(d for s_, d, t in seen if s_ == "multiple scattering: view rays") == [1, 2, 3, 4]
     for st in stages:
         assert sorted(d for s_, d, t in seen if s_ == st) == list(range(1, 25))
         assert st in "".join(err.parts)

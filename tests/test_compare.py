@@ -9,12 +9,11 @@ from the patch's solid-angle fraction (exact pixel solid angles Δφ (cos θ₁ 
 from __future__ import annotations
 
 import json
-import struct
-import zlib
 from types import SimpleNamespace
 
 import numpy as np
 import pytest
+from _png import read_png  # tests/_png.py
 
 from atmoscatter.colour import linear_rgb_to_XYZ
 from atmoscatter.compare import (
@@ -179,23 +178,10 @@ class TestBadInput:
 
 
 def _png_pixels(path):
-    """Minimal PNG decoder for our own 8-bit RGB, filter-0 files."""
-    data = open(path, "rb").read()
-    assert data[:8] == b"\x89PNG\r\n\x1a\n"
-    pos, idat, ihdr = 8, b"", None
-    while pos < len(data):
-        n = struct.unpack(">I", data[pos:pos + 4])[0]
-        tag, body = data[pos + 4:pos + 8], data[pos + 8:pos + 8 + n]
-        assert struct.unpack(">I", data[pos + 8 + n:pos + 12 + n])[0] == zlib.crc32(tag + body)
-        if tag == b"IHDR":
-            ihdr = struct.unpack(">IIBBBBB", body)
-        elif tag == b"IDAT":
-            idat += body
-        pos += 12 + n
-    w, h = ihdr[0], ihdr[1]
-    raw = np.frombuffer(zlib.decompress(idat), dtype=np.uint8).reshape(h, 1 + 3 * w)
-    assert np.all(raw[:, 0] == 0)
-    return raw[:, 1:].reshape(h, w, 3)
+    """RGB pixels of a PNG the report wrote (decoded by tests/_png.py, any row filter)."""
+    px = read_png(path)
+    assert px.shape[-1] == 3
+    return px
 
 
 def test_write_summary_and_error_maps(tmp_path):

@@ -2,12 +2,11 @@
 
 import json
 import os
-import struct
-import zlib
 
 import numpy as np
 import OpenEXR
 import pytest
+from _png import read_png  # tests/_png.py
 
 import atmoscatter as ac
 from atmoscatter.exr import (
@@ -180,48 +179,6 @@ class TestAtomic:
             read_exr(bad)
 
 
-def _read_png(path):
-    """Minimal independent PNG decoder for 8-bit images with any of the five row filters
-    (PNG specification, 2nd ed., section 9.2; undone byte by byte as written there)."""
-    data = open(path, "rb").read()
-    assert data[:8] == b"\x89PNG\r\n\x1a\n"
-    pos, chunks = 8, {}
-    while pos < len(data):
-        n = struct.unpack(">I", data[pos:pos + 4])[0]
-        tag = data[pos + 4:pos + 8]
-        body = data[pos + 8:pos + 8 + n]
-        crc = struct.unpack(">I", data[pos + 8 + n:pos + 12 + n])[0]
-        assert crc == zlib.crc32(tag + body) & 0xFFFFFFFF
-        chunks.setdefault(tag, b"")
-        chunks[tag] += body
-        pos += 12 + n
-    w, h, depth, ctype = struct.unpack(">IIBB", chunks[b"IHDR"][:10])
-    c = {0: 1, 2: 3, 6: 4}[ctype]
-    raw = np.frombuffer(zlib.decompress(chunks[b"IDAT"]), dtype=np.uint8).reshape(h, 1 + w * c)
-    assert np.all(raw[:, 0] <= 4)
-    out = [[0] * (w * c) for _ in range(h)]
-    for y in range(h):
-        kind, row = int(raw[y, 0]), raw[y, 1:].tolist()
-        for i in range(w * c):
-            a = out[y][i - c] if i >= c else 0
-            b = out[y - 1][i] if y > 0 else 0
-            cc = out[y - 1][i - c] if (y > 0 and i >= c) else 0
-            if kind == 0:
-                pred = 0
-            elif kind == 1:
-                pred = a
-            elif kind == 2:
-                pred = b
-            elif kind == 3:
-                pred = (a + b) // 2
-            else:
-                p = a + b - cc
-                pa, pb, pc = abs(p - a), abs(p - b), abs(p - cc)
-                pred = a if pa <= pb and pa <= pc else (b if pb <= pc else cc)
-            out[y][i] = (row[i] + pred) % 256
-    return np.array(out, dtype=np.uint8).reshape(h, w, c)
-
-
 class TestPreview:
     def test_tone_curves(self):
         L = np.array([0.0, 1.0, 10.0])
@@ -241,15 +198,15 @@ class TestPreview:
 
     def test_png_round_trip(self, tmp_path):
         px = np.random.default_rng(0).integers(0, 256, size=(5, 7, 4), dtype=np.uint8)
-        np.testing.assert_array_equal(_read_png(write_png(tmp_path / "a.png", px)), px)
-        np.testing.assert_array_equal(_read_png(write_png(tmp_path / "b.png", px[..., :3])),
+        np.testing.assert_array_equal(read_png(write_png(tmp_path / "a.png", px)), px)
+        np.testing.assert_array_equal(read_png(write_png(tmp_path / "b.png", px[..., :3])),
                                       px[..., :3])
 
     def test_preview_of_exr(self, tmp_path):
         img = ac.render(scene(alpha=True))
         exr = write_exr(tmp_path / "sky.exr", img)
         png = write_preview(exr, tmp_path / "sky.png", exposure=1e-4, alpha="mask")
-        px = _read_png(png)
+        px = read_png(png)
         assert px.shape == (16, 32, 4)
         expected = np.round(srgb_encode(1 - np.exp(-1e-4 * img.rgb.astype(float))) * 255)
         np.testing.assert_array_equal(px[..., :3], expected.astype(np.uint8))
