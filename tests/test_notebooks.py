@@ -48,9 +48,10 @@ REQUIRES = {
     "weather_year": ("weather_batch", "run_batch", "read_exr", "latlong_quadrature",
                      "diffuse_irradiance", "preview_array", "perez_epsilon_bin"),
     "noon_to_night": ("render", "plan", "preview_array", "diffuse_irradiance",
-                      "single_scattering", "multiple_scattering", "delta_E_2000"),
-    "error_vs_runtime": ("single_scattering", "multiple_scattering", "canonical_scene",
-                         "convergence_study", "earth_turbidity_atmosphere"),
+                      "single_scattering", "multiple_scattering"),
+    "error_vs_runtime": ("single_scattering", "multiple_scattering",
+                         "convergence.CANONICAL_SCENES", "convergence.convergence_study",
+                         "earth_turbidity_atmosphere"),
 }
 #: optional packages a notebook needs beyond the test extra's notebook runner
 OPTIONAL = {"weather_year": ("pvlib", "matplotlib")}
@@ -78,6 +79,21 @@ def _kinds(cell) -> list:
         if not kinds or kinds[-1] != kind:  # a stream may arrive in one piece or several
             kinds.append(kind)
     return kinds
+
+
+def _has(dotted: str) -> bool:
+    """Whether ``atmoscatter.<dotted>`` exists (a name of the package or of a submodule)."""
+    mod, _, attr = dotted.rpartition(".")
+    try:
+        obj = importlib.import_module(f"atmoscatter.{mod}") if mod else ac
+    except ImportError:
+        return False
+    return hasattr(obj, attr)
+
+
+def test_every_notebook_requirement_exists():
+    """A misspelt requirement would skip its notebook silently: every name must resolve."""
+    assert not [n for names in REQUIRES.values() for n in names if not _has(n)]
 
 
 def test_every_notebook_is_listed():
@@ -117,7 +133,7 @@ def test_stored_output_check_can_fail(tmp_path):
 
 @pytest.mark.parametrize("name", _params())
 def test_notebook_runs(name, tmp_path):
-    missing = [n for n in REQUIRES[name] if not hasattr(ac, n)]
+    missing = [n for n in REQUIRES[name] if not _has(n)]
     if missing:
         pytest.skip(f"atmoscatter lacks {missing} in this checkout")
     for module in OPTIONAL.get(name, ()):
