@@ -2,7 +2,7 @@
 NumPy dispatches to at run time on this machine (x86-64: AVX2/AVX-512 families; ARM:
 the optional ASIMD/SVE extensions), so that NumPy falls back to its baseline kernels.
 
-CI runs part of the test suite a second time with it (``.ci/run``): results computed with
+CI runs the default test suite a second time with it (``.ci/run``): results computed with
 different SIMD kernels differ in the last bits, and tests must not depend on that.  With
 ``--check`` it instead verifies, inside a process started with that environment, that
 those features are really off (NumPy reports them as unavailable).
