@@ -257,7 +257,7 @@ def write_png(path, pixels) -> str:
     colour_type = {1: 0, 3: 2, 4: 6}.get(c)
     if colour_type is None:
         raise ValueError(f"pixels must have 1, 3 or 4 channels, got {c}")
-    raw = _filter_rows(p.reshape(h, w * c), c)
+    raw = _filter_rows(p.reshape(h, w * c), c)  # in row blocks: bounded working memory
 
     def chunk(tag, data):
         body = tag + data
@@ -274,16 +274,33 @@ def write_png(path, pixels) -> str:
     return path
 
 
+#: rows filtered at a time by :func:`_filter_rows` (its candidates take ~10 bytes per byte)
+_FILTER_BLOCK_ROWS = 256
+
+
 def _filter_rows(rows, bpp):
     """PNG scanlines: each row of ``rows`` (h, n) uint8 prefixed by its filter type and
-    filtered with the type of least sum of absolute (signed) filtered bytes."""
+    filtered with the type of least sum of absolute (signed) filtered bytes; in blocks of
+    :data:`_FILTER_BLOCK_ROWS` rows (each block sees the row above it)."""
+    h = rows.shape[0]
+    blocks = [_filter_block(rows[i:i + _FILTER_BLOCK_ROWS], rows[i - 1] if i else None, bpp)
+              for i in range(0, h, _FILTER_BLOCK_ROWS)]
+    return np.concatenate(blocks, axis=0) if blocks else np.zeros((0, rows.shape[1] + 1), np.uint8)
+
+
+def _filter_block(rows, above, bpp):
+    """:func:`_filter_rows` of one block; ``above``: the row before it (``None``: the
+    image's first row, whose "above" is 0)."""
     x = rows.astype(np.int16)
+    up = np.zeros_like(x)
+    up[1:] = x[:-1]
+    if above is not None:
+        up[0] = above
     a = np.zeros_like(x)
     a[:, bpp:] = x[:, :-bpp]  # left neighbour (same channel), 0 before the row
-    b = np.zeros_like(x)
-    b[1:] = x[:-1]  # above, 0 on the first row
+    b = up  # above, 0 on the first row
     c = np.zeros_like(x)
-    c[1:, bpp:] = x[:-1, :-bpp]  # above-left
+    c[:, bpp:] = up[:, :-bpp]  # above-left
     pa, pb, pc = np.abs(b - c), np.abs(a - c), np.abs(a + b - 2 * c)
     paeth = np.where((pa <= pb) & (pa <= pc), a, np.where(pb <= pc, b, c))
     cand = np.stack([x, x - a, x - b, x - (a + b) // 2, x - paeth]) & 0xFF  # types 0..4

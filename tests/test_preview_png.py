@@ -64,3 +64,19 @@ def test_filters_shrink_a_smooth_sky(tmp_path):
     # measured: 0.57 of the unfiltered size (Pillow's own filtering gives about the same);
     # 0.7 leaves room for zlib versions while failing if the filters stop working
     assert size < 0.7 * plain, (size, plain)
+
+
+def test_row_blocks_give_the_same_file(tmp_path, monkeypatch):
+    """The filter runs in blocks of rows (bounded memory for big previews); each block sees
+    the row above it, so the bytes equal a one-block run."""
+    from atmoscatter import preview as P
+
+    rng = np.random.default_rng(4)
+    yy, xx = np.mgrid[0:61, 0:23]
+    px = np.stack([(xx * 3 + yy) % 256, (2 * yy) % 256, rng.integers(0, 256, (61, 23))],
+                  axis=-1).astype(np.uint8)
+    monkeypatch.setattr(P, "_FILTER_BLOCK_ROWS", 10**6)
+    whole = open(P.write_png(tmp_path / "whole.png", px), "rb").read()
+    monkeypatch.setattr(P, "_FILTER_BLOCK_ROWS", 7)
+    blocked = open(P.write_png(tmp_path / "blocked.png", px), "rb").read()
+    assert blocked == whole
