@@ -61,6 +61,111 @@ BRIGHTNESS_ELEVATIONS = (10.0, 30.0, 60.0)
 BRIGHTNESS_MODELS = ("preetham", "hoffman_preetham", "cie_clear", "single_scattering")
 FAIL_P95 = 0.25  # "fails": more than 5 % of the sky off by more than 25 %
 
+#: IES clear-sky daylight availability (IES RP-21-1984, "Recommended practice for the
+#: calculation of daylight availability", J. Illum. Eng. Soc. 13(4):381-392,
+#: doi:10.1080/00994480.1984.10748791; fits by Gillette, Pierpoint & Treado 1984 to measured
+#: clear skies).  Mean design values, not instantaneous ones (the RP's own caution).
+IES_SOLAR_ILLUMINANCE = 127.5e3  # extraterrestrial solar illuminance [lx]
+IES_CLEAR_EXTINCTION = 0.21  # luminous extinction per air mass, clear sky [-]
+IES_CLEAR_SKY_ABC = (0.8e3, 15.5e3, 0.5)  # E_sky = A + B (sin h)^C [lx, lx, -]
+IES_MIN_ELEVATION = 20.0  # verdicts use the fits only with the sun at least this high [deg]
+IES_TOLERANCE = 0.20  # "agrees with the measured mean": within this fraction
+
+
+def ies_clear_sky(elevation_deg):
+    """IES (1984) clear-sky direct normal and diffuse horizontal illuminance [lx].
+
+    Air mass by Kasten & Young (1989); above 20° it differs from 1/sin h by < 0.5 %.
+    """
+    h = np.asarray(elevation_deg, float)
+    m = 1.0 / (np.sin(np.radians(h)) + 0.50572 * (h + 6.07995) ** -1.6364)
+    a, b, c = IES_CLEAR_SKY_ABC
+    return (IES_SOLAR_ILLUMINANCE * np.exp(-IES_CLEAR_EXTINCTION * m),
+            a + b * np.sin(np.radians(h)) ** c)
+
+
+def _direct_normal_lux(T, elevation_deg):
+    """Direct normal illuminance [lx] of the reference atmosphere at turbidity ``T``."""
+    wl = np.arange(380.0, 781.0, 5.0)
+    atm = ac.earth_turbidity_atmosphere(T, tuple(wl))
+    h = np.radians(elevation_deg)
+    e = ac.direct_normal_irradiance(atm, [0.0, np.cos(h), np.sin(h)])
+    return float(ac.K_M * e @ ac.cmf_weights(wl)[:, 1])
+
+
+def _ies_ratios(rows, model):
+    """{(T, rounded elevation): diffuse horizontal illuminance / IES clear-sky mean}.
+
+    ``model="reference"`` takes the reference's own illuminance (stored in every row of an
+    instant); morning and afternoon instants of equal rounded elevation are averaged.
+    """
+    seen, out = set(), {}
+    for r in rows:
+        if "illuminance_ratio" not in r:
+            continue
+        if model == "reference":
+            if (r["turbidity"], r["time"]) in seen:
+                continue
+            seen.add((r["turbidity"], r["time"]))
+            e = r["illuminance_ref"]
+        elif r["model"] == model:
+            e = r["illuminance_ref"] * r["illuminance_ratio"]
+        else:
+            continue
+        key = (r["turbidity"], round(r["sun_elevation_deg"]))
+        out.setdefault(key, []).append(e / float(ies_clear_sky(r["sun_elevation_deg"])[1]))
+    return {k: float(np.mean(v)) for k, v in out.items()}
+
+
+def _ies_turbidity(rows):
+    """The report turbidity whose reference best matches the IES means (sun ≥ 20°)."""
+    ref = _ies_ratios(rows, "reference")
+    worst = {T: max((abs(np.log(v)) for (t, e), v in ref.items()
+                     if t == T and e >= IES_MIN_ELEVATION), default=np.inf)
+             for T in TURBIDITIES}
+    best = min(worst, key=worst.get)
+    return best if np.isfinite(worst[best]) else None
+
+
+def ies_section(rows):
+    """Section 1: the physical reference against the IES measured clear-sky means."""
+    ref = _ies_ratios(rows, "reference")
+    lines = ["### Clear-sky daylight: the IES measured means", "",
+             "The IES daylight-availability fits to measured clear skies (IES RP-21-1984, "
+             "J. Illum. Eng. Soc. 13(4), 381–392; Gillette, Pierpoint & Treado 1984): direct "
+             "normal illuminance 127.5 klx · exp(−0.21 m) and diffuse horizontal illuminance "
+             "of the sky 0.8 + 15.5 (sin h)^0.5 klx, with air mass m (Kasten & Young 1989) "
+             "and sun elevation h.  They are means over many clear skies — the RP warns that "
+             "single skies differ — and have no turbidity: a clear sky of the data is "
+             "roughly turbidity 2–3.  The reference's values divided by them:", ""]
+    if not ref:
+        return lines + ["No reference map was rendered (no model compared).", ""]
+    els = sorted({e for _, e in ref})
+    lines += ["| quantity | T | " + " | ".join(f"{e}°" for e in els) + " |",
+              "|---|---|" + "---|" * len(els)]
+    for T in TURBIDITIES:
+        lines.append(f"| diffuse horizontal, `multiple_scattering` / IES | {T:g} | " + " | ".join(
+            f"{ref[(T, e)]:.2f}" if (T, e) in ref else "" for e in els) + " |")
+    for T in TURBIDITIES:
+        lines.append(f"| direct normal, `direct_normal_irradiance` / IES | {T:g} | " + " | ".join(
+            f"{_direct_normal_lux(T, e) / float(ies_clear_sky(e)[0]):.2f}" for e in els) + " |")
+    lines.append("| IES diffuse horizontal [klx] | — | " + " | ".join(
+        f"{float(ies_clear_sky(e)[1]) / 1e3:.1f}" for e in els) + " |")
+    lines.append("| IES direct normal [klx] | — | " + " | ".join(
+        f"{float(ies_clear_sky(e)[0]) / 1e3:.1f}" for e in els) + " |")
+    tb = _ies_turbidity(rows)
+    hi = [v for (T, e), v in ref.items() if T == tb and e >= IES_MIN_ELEVATION]
+    if hi:
+        lines += ["", f"The IES clear sky is closest to T = {tb:g} of this package's turbidity "
+                  f"mapping: with the sun at {IES_MIN_ELEVATION:g}° or higher the reference's "
+                  f"diffuse illuminance is {min(hi):.2f}–{max(hi):.2f} times the measured "
+                  "clear-sky mean there (the *daylighting* verdicts below compare the models "
+                  f"with the IES means at T = {tb:g}).  Elevations are rounded; the fits are "
+                  "least certain with the sun within a few degrees of the horizon, where the "
+                  "air mass and the turbidity dominate."]
+    return lines + [""]
+
+
 
 def _models():
     try:
@@ -351,13 +456,26 @@ MODEL_FALLBACK_USE = {
 }
 
 
+def _span(values, fmt="{:.2g}"):
+    lo, hi = min(values), max(values)
+    return fmt.format(lo) if fmt.format(lo) == fmt.format(hi) else \
+        f"{fmt.format(lo)}–{fmt.format(hi)}"
+
+
 def _verdicts(rows, tested):
     """Plain-language verdict per model, every figure computed from ``rows``."""
+    tb = _ies_turbidity(rows)
     out = ["### Verdicts", "",
-           f"A case *passes* when the 95th percentile of the relative luminance error over the "
-           f"sky is at most {FAIL_P95:.0%}.  *Absolute*: no rescaling (what a renderer using the "
-           "model in physical units gets); *shape*: after the best-fit scale (only the "
-           "distribution over the sky).  The verdicts are generated from the tables below.", ""]
+           "Four measured criteria, each generated from the tables below: *level* — the "
+           "model's luminance against the reference's without rescaling (passes where the "
+           f"95th percentile of the relative error over the sky is at most {FAIL_P95:.0%}); "
+           "*daylighting* — its diffuse horizontal illuminance against the IES measured "
+           f"clear-sky mean (section 1; passes within {IES_TOLERANCE:.0%} at T = {tb:g}, the "
+           "turbidity whose physical sky matches those means best, at every sun elevation of "
+           f"at least {IES_MIN_ELEVATION:g}°); *shape* — the distribution over the sky after the "
+           f"best-fit scale (same {FAIL_P95:.0%} rule); *colour* — CIEDE2000 after exposure "
+           "normalisation (passes where its p95 is at most 5).  Where no criterion passes, "
+           "the *use for* line is a judgement from what the model is, marked as such.", ""]
     for m in tested:
         ok = [r for r in rows if r["model"] == m and "p95" in r]
         if not ok:
@@ -366,38 +484,54 @@ def _verdicts(rows, tested):
         shape_ok = sorted({round(r["sun_elevation_deg"]) for r in ok
                            if r["scaled_p95"] <= FAIL_P95})
         abs_ok = [r for r in ok if r["p95"] <= FAIL_P95]
-        factor = sorted(1.0 / r["scale"] for r in ok)
-        de = sorted(r["delta_e_p95"] for r in ok)
+        factor = [1.0 / r["scale"] for r in ok]
+        de = [r["delta_e_p95"] for r in ok]
+        ies = {k: v for k, v in _ies_ratios(rows, m).items()
+               if k[0] == tb and k[1] >= IES_MIN_ELEVATION}
+        measured = [f"level {_span(factor)} times the reference's (best-fit scale)"]
+        if ies:
+            measured.append(f"diffuse illuminance {_span(list(ies.values()))} times the IES "
+                            f"clear-sky mean (T = {tb:g}, sun ≥ {IES_MIN_ELEVATION:g}°)")
+        measured += [f"shape p95 {_span([r['scaled_p95'] for r in ok])} after scaling",
+                     f"ΔE00 p95 {_span(de, '{:.0f}')}"]
         use, avoid = [], []
         if abs_ok:
             use.append(f"absolute luminance where it passes ({len(abs_ok)} of {len(ok)} cases: "
                        + ", ".join(sorted({f'T = {r["turbidity"]:g}, sun {r["sun_elevation_deg"]:.0f}°'
                                            for r in abs_ok})) + ")")
         else:
-            avoid.append(f"absolute luminance: its level is {factor[0]:.2g}–{factor[-1]:.2g} "
-                         f"times the reference's (no case passes)")
+            avoid.append("absolute sky luminance (no case passes)")
+        if ies and all(abs(v - 1.0) <= IES_TOLERANCE for v in ies.values()):
+            use.append(f"clear-sky daylighting illuminance with the sun above "
+                       f"{IES_MIN_ELEVATION:g}°")
+        elif ies:
+            avoid.append("daylighting illuminance")
         if shape_ok:
             all_t = [T for T in TURBIDITIES
                      if all(r["scaled_p95"] <= FAIL_P95 for r in ok if r["turbidity"] == T)]
             where = (f"at every measured sun elevation for T = {', '.join(f'{t:g}' for t in all_t)}"
                      if all_t else f"with the sun at {', '.join(f'{e}°' for e in shape_ok)} "
                                    "(some turbidities)")
-            use.append(f"the luminance distribution over the sky once scaled to a known level, {where}")
+            use.append(f"the luminance distribution over the sky once scaled to a known "
+                       f"level, {where}")
         bad_el = [e for e in els if e not in shape_ok]
-        best = min(ok, key=lambda r: r["scaled_p95"])
         if not shape_ok:
-            avoid.append(f"the sky's shape: no case passes even after scaling (best p95 "
-                         f"{best['scaled_p95']:.2f}, T = {best['turbidity']:g}, sun "
-                         f"{best['sun_elevation_deg']:.0f}°)")
+            avoid.append("the sky's luminance distribution, even rescaled")
         elif bad_el:
             avoid.append(f"the sky's shape with the sun at {', '.join(f'{e}°' for e in bad_el)} "
                          "(fails at every measured turbidity)")
-        avoid.append(f"colour-critical work: ΔE00 p95 {de[0]:.0f}–{de[-1]:.0f} against the reference")
+        if max(de) <= 5.0:
+            use.append("colour")
+        else:
+            avoid.append("colour-critical work")
+        use_line = ("*Use for*: " + "; ".join(use) if use else
+                    "*Use for* (a judgement: none of the four criteria passes): "
+                    + MODEL_FALLBACK_USE.get(m, "qualitative pictures"))
         out += [f"**`{m}`** — {MODEL_NATURE.get(m, 'a sky model')}.", "",
-                "- *Use for*: " + ("; ".join(use) if use else
-                                   "no measured case supports a quantitative use; "
-                                   + MODEL_FALLBACK_USE.get(m, "qualitative pictures")) + ".",
-                f"- *Do not use for*: {'; '.join(avoid)}.", ""]
+                f"- *Measured*: {'; '.join(measured)}.",
+                f"- {use_line}.",
+                f"- *Do not use for*: {'; '.join(avoid) if avoid else 'nothing measured here'}.",
+                ""]
     return out
 
 
@@ -746,8 +880,9 @@ def intro_section():
             "`multiple_scattering` at equal turbidity.  This says how far each is from the "
             "physical model — a reader who trusts section 1 can read it as the model's error.",
             "",
-            "No measured-sky data set ships with the package, so no model is compared with "
-            "measured skies here.", ""]
+            "No measured-sky data set ships with the package; the one comparison with "
+            "measured skies is against the IES clear-sky daylight-availability means "
+            "(section 1), which also anchor the *daylighting* verdicts of section 2.", ""]
 
 
 def outside_references_section(docs_dir, out_dir, width):
@@ -879,7 +1014,7 @@ def main(argv=None) -> int:
     t0 = time.perf_counter()
     if args.benchmarks:
         run_benchmarks(out_dir)
-    model_lines, _, timings = model_section(out_dir, args.width, args.times)
+    model_lines, model_rows, timings = model_section(out_dir, args.width, args.times)
     lines = ["# Validation report", "",
              "Generated by `scripts/validation_report.py` with the package itself "
              f"(atmoscatter {ac.__version__}, {_dt.date.today().isoformat()}); re-run it to "
@@ -887,7 +1022,7 @@ def main(argv=None) -> int:
              f"{', '.join(f'`{m}`' for m in _models()) or 'none'}.", ""]
     bright_lines, _ = brightness_section(out_dir, n_theta)
     lines += (intro_section() + outside_references_section(args.out, out_dir, args.width)
-              + model_lines + bright_lines
+              + ies_section(model_rows) + model_lines + bright_lines
               + convergence_section(args.out) + speed_section(timings, out_dir, args.benchmarks))
     lines += ["## Gallery", "", "Images rendered by the package: see [gallery](gallery.md).", "",
               f"*Report generated in {time.perf_counter() - t0:.0f} s.*"]
