@@ -481,11 +481,9 @@ def test_field_build_matches_the_reference_field(monkeypatch, albedo):
     atm = qd.prepare_atmosphere(ac.earth_turbidity_atmosphere(2.5))
     fast = M._FieldState(atm, grid, albedo).source_sum(4)
 
-    def reference(field, march, S, threads=1, logt=None):
-        nsc, nwl = S.shape[-2:]
+    def reference(field, march, logt, nsc, nwl, threads=1):
         N, M_ = march.h.shape
-        logt = G.log_table(S.reshape(field.shape_out + (nsc * nwl,)))
-        out = _reference_gather(logt, field.h_nodes, field.ths, field.mu_out, march.h, march.mus,
+        out = _reference_gather(logt, field.h_fine, field.ths, field.mu_out, march.h, march.mus,
                                 march.mu, march.cphi,
                                 march.wt.reshape(N, M_, -1).astype(np.float32).astype(float))
         return out.reshape(N, nsc, nwl).sum(axis=1)
@@ -498,3 +496,43 @@ def test_field_build_matches_the_reference_field(monkeypatch, albedo):
     big = slow > 1e-12 * slow.max()
     assert big.mean() > 0.5
     np.testing.assert_allclose(fast[big], slow[big], rtol=1e-10, atol=0)
+
+
+def test_altitude_refinement_of_the_log_source():
+    """The refined table the gather reads (``_refine_log``): the nodes are kept exactly; a
+    ``log S`` that is a monotone cubic in altitude is reproduced at the inserted points
+    (the four-point cubic is exact for it); a non-monotone one is limited to the range of
+    the two bracketing nodes; ``altitude_refine=1`` is the node table itself."""
+    from atmoscatter.sky import _quadrature as qd
+    from atmoscatter.sky import multiple as M
+
+    atm = qd.prepare_atmosphere(ac.earth_turbidity_atmosphere(2.5))
+    field = M._Field(atm, MultipleScatteringGrid(n_altitude=9, n_sun=4, n_mu=4, n_phi=3,
+                                                 altitude_refine=4))
+    h, hf = field.h_nodes, field.h_fine
+    assert hf.size == 4 * (h.size - 1) + 1
+    np.testing.assert_array_equal(hf[::4], h)
+    x = h / h[-1]
+    rest = field.shape_out[1:]
+
+    def table(f):
+        return np.broadcast_to(f(x)[:, None, None, None, None], field.shape_out + (2,)).copy()
+
+    mono = lambda t: -3.0 * t + 0.5 * t**2 - 0.4 * t**3  # noqa: E731  decreasing on [0, 1]
+    out = M._refine_log(field, table(mono))
+    assert out.shape == field.shape_fine + (2,)
+    np.testing.assert_allclose(out[:, 0, 0, 0, 0], mono(hf / h[-1]), rtol=0, atol=1e-12)
+    bump = lambda t: np.cos(7.0 * t)  # noqa: E731  extrema between nodes
+    out = M._refine_log(field, table(bump))[:, 0, 0, 0, 0]
+    node = bump(x)
+    for i in range(h.size - 1):
+        seg = out[4 * i : 4 * i + 5]
+        assert seg.min() >= min(node[i], node[i + 1]) - 1e-15
+        assert seg.max() <= max(node[i], node[i + 1]) + 1e-15
+    one = M._Field(atm, MultipleScatteringGrid(n_altitude=9, n_sun=4, n_mu=4, n_phi=3,
+                                               altitude_refine=1))
+    t = table(mono)
+    np.testing.assert_array_equal(M._refine_log(one, t), t)
+    assert rest == field.shape_fine[1:]
+    with pytest.raises(ValueError, match="altitude_refine"):
+        MultipleScatteringGrid(altitude_refine=0)

@@ -127,6 +127,13 @@ class MultipleScatteringGrid:
     horizon_density : float
         Node density at solar zenith 92° relative to the density at the zenith [-], ≥ 1
         (1: uniform nodes).
+    altitude_refine : int
+        Refinement of the altitude axis of the source table the ray integrals read, ≥ 1:
+        ``altitude_refine − 1`` values inserted in every interval by the cubic in
+        ``log S`` (:func:`_refine_log`; 1: log-linear between the nodes).  No extra rays
+        are marched; the table grows by this factor.  With 1, optically thick
+        conservative layers lost energy in every order (DISORT 2D 6–8 %, 3B 7–12 % low);
+        with 4 both are within 0.4 %.
     """
 
     n_altitude: int = 20
@@ -136,11 +143,12 @@ class MultipleScatteringGrid:
     order: int = 3
     max_sun_zenith: float = 120.0
     horizon_density: float = 6.0
+    altitude_refine: int = 4
 
     def __post_init__(self):
-        for name in ("n_altitude", "n_sun", "n_mu", "n_phi", "order"):
+        for name in ("n_altitude", "n_sun", "n_mu", "n_phi", "order", "altitude_refine"):
             value = getattr(self, name)
-            low = 1 if name == "order" else 2
+            low = 1 if name in ("order", "altitude_refine") else 2
             if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < low:
                 raise ValueError(
                     f"MultipleScatteringGrid.{name} must be an integer >= {low}, got {value!r}"
@@ -456,6 +464,12 @@ class _Field:
         self.phi_nodes = np.linspace(0.0, np.pi, grid.n_phi)
         self.shape = (grid.n_altitude, grid.n_sun, grid.n_mu, grid.n_phi)
         self.shape_out = (grid.n_altitude, grid.n_sun, grid.n_mu + 2, grid.n_phi)
+        # the gather reads log S on a finer altitude axis: altitude_refine − 1 points
+        # inserted in every interval (:func:`_refine_log`)
+        h, r = self.h_nodes, grid.altitude_refine
+        t = np.arange(r) / r
+        self.h_fine = np.concatenate([(h[:-1, None] + t * np.diff(h)[:, None]).ravel(), h[-1:]])
+        self.shape_fine = (self.h_fine.size,) + self.shape_out[1:]
 
     def directions(self, mu=None) -> np.ndarray:
         """Directions (μ-major, φ-minor) in a frame with the sun in the x–z plane."""
@@ -571,14 +585,57 @@ def _interp_e(field: _Field, E: np.ndarray, mus: np.ndarray) -> np.ndarray:
     return np.where(pos, geo, (1 - f) * a0 + f * a1)
 
 
-def _gather(field: _Field, march: _March, S: np.ndarray, threads: int = 1,
-            logt: np.ndarray | None = None) -> np.ndarray:
-    """Σ_samples w T Σ_i β_i ρ_i S_i: S (n_r, n_s, n_out, n_phi, n_sc, nwl) → (N, nwl)
-    (``logt``: :func:`_ms_gather.log_table` of ``S`` flattened to channels, if known)."""
-    nsc, nwl = S.shape[-2:]
+def _refine_log(field: _Field, logt: np.ndarray) -> np.ndarray:
+    """``log S`` on the node altitudes (n_r, ...) → on :attr:`_Field.h_fine`: between the
+    nodes the cubic through the four nearest (shifted inward at the ends), limited to the
+    range of the two bracketing values.
+
+    The gather interpolates ``log S`` linearly in altitude, which is exact for a source
+    falling exponentially with depth but biased low wherever ``log S`` is concave — e.g.
+    in an optically thick conservative layer, whose source is nearly linear in optical
+    depth: every order then lost a little energy, and the losses compounded over the
+    many orders of such a layer (DISORT case 2D: 6–8 % low at the bottom with 20
+    altitudes).  The inserted points from the cubic shorten the span of the linear step
+    (its error falls with the square of the refinement) without marching any more
+    rays; the limiter keeps them between their neighbours (no overshoot at floored
+    "dark" values or at the terminator's steep edge).
+    """
+    h = field.h_nodes
+    n, r = h.size, field.grid.altitude_refine
+    out = np.empty(field.shape_fine + logt.shape[len(field.shape_out):], dtype=logt.dtype)
+    out[0::r] = logt
+    if r == 1:
+        return out
+    for i in range(n - 1):
+        a, b = logt[i], logt[i + 1]
+        lo, hi = np.minimum(a, b), np.maximum(a, b)
+        i0 = min(max(i - 1, 0), max(n - 4, 0))
+        xs = h[i0 : i0 + 4]
+        for k in range(1, r):
+            x = h[i] + (h[i + 1] - h[i]) * k / r
+            if xs.size < 4:  # too few nodes for a cubic: the linear step
+                mid = a + (b - a) * (k / r)
+            else:
+                w = [np.prod([(x - xs[m]) / (xs[q] - xs[m]) for m in range(4) if m != q])
+                     for q in range(4)]
+                mid = sum(w[q] * logt[i0 + q] for q in range(4))
+            out[r * i + k] = np.clip(mid, lo, hi)
+    return out
+
+
+def _log_source(field: _Field, S_flat: np.ndarray) -> np.ndarray:
+    """The table the gather reads: ``log S`` (floored, :func:`._ms_gather.log_table`) of a
+    source on the node grid ``field.shape_out + (C,)``, refined in altitude."""
+    return _refine_log(field, _log_table(np.ascontiguousarray(S_flat)))
+
+
+def _gather(field: _Field, march: _March, logt: np.ndarray, nsc: int, nwl: int,
+            threads: int = 1) -> np.ndarray:
+    """Σ_samples w T Σ_i β_i ρ_i S_i → (N, nwl), with ``logt`` = :func:`_log_source` of
+    the source S (n_r, n_s, n_out, n_phi, n_sc·nwl)."""
     N, M = march.h.shape
     vals = _gather_kernel(
-        S.reshape(field.shape_out + (nsc * nwl,)), field.h_nodes, field.ths, field.mu_out,
+        logt, field.h_fine, field.ths, field.mu_out,
         march.h, march.mus, march.mu, march.cphi, march.wt.reshape(N, M, nsc * nwl),
         threads=threads, logt=logt,
     )
@@ -668,8 +725,8 @@ class _FieldState:
         E = _ground_irradiance(f, self.L) if self.albedo > 0 else None
         Lnew = np.zeros_like(self.L)
         n_mu, n_phi = f.shape[2:]
-        S_flat = np.ascontiguousarray(S).reshape(f.shape_out + (-1,))
-        logS = _log_table(S_flat)  # once per order
+        nsc, nwl = S.shape[-2:]
+        logS = _log_source(f, S.reshape(f.shape_out + (-1,)))  # once per order
 
         def cell(ij):
             i, j = ij
@@ -680,9 +737,8 @@ class _FieldState:
                 mc = _march(self.atm, self.atm.planet_radius + f.h_nodes[i],
                             f.directions(f.mu_q[i]), s, f.grid.order)
             if not isinstance(mc, _Compact):
-                path = _gather(f, mc, S, logt=logS)
+                path = _gather(f, mc, logS, nsc, nwl)
             else:
-                nsc, nwl = S.shape[-2:]
                 path = mc.loc.gather(logS).reshape(-1, nsc, nwl).sum(axis=1)
             if E is not None:
                 e = _interp_e(f, E, mc.mus_end)
@@ -778,7 +834,7 @@ def _compact(field: _Field, mc: _March, packed=None):
     N, M = mc.h.shape
     if packed is None:
         packed = _pack_weights(np.asarray(mc.wt, dtype=np.float32), N, M)
-    loc = _Located(field.shape_out, field.h_nodes, field.ths, field.mu_out,
+    loc = _Located(field.shape_fine, field.h_fine, field.ths, field.mu_out,
                    mc.h, mc.mus, mc.mu, mc.cphi, None, packed=packed)
     return _Compact(loc, mc.ground, mc.t_end, mc.mus_end)
 
@@ -804,7 +860,7 @@ _MAX_AUTO_ORDERS = 200
 
 
 #: version of the algorithm behind a stored field: bump when the field's values change
-_FIELD_VERSION = 4
+_FIELD_VERSION = 5
 _RESULTS: dict = {}  # in-process: disk-cache key -> (S_sum, orders, tail)
 _RESULTS_MAX = 8
 
@@ -893,7 +949,7 @@ def _field_for(atm_obj, atm, grid, albedo, orders, tol=None):
                 res = compute()  # a stale entry of another layout: never trust it
             res = dict(res)
             # the gather reads log S: take the logarithms once per field, not per call
-            res["logS"] = _log_table(np.ascontiguousarray(res["S_sum"]).reshape(field.shape_out + (-1,)))
+            res["logS"] = _log_source(field, res["S_sum"].reshape(field.shape_out + (-1,)))
             with _CACHE_LOCK:
                 if len(_RESULTS) >= _RESULTS_MAX:
                     _RESULTS.pop(next(iter(_RESULTS)))
@@ -902,7 +958,7 @@ def _field_for(atm_obj, atm, grid, albedo, orders, tol=None):
         _warn_tail(int(res["orders"]), float(res["tail"]), tol)
     logS = res.get("logS")
     if logS is None:
-        logS = _log_table(np.ascontiguousarray(res["S_sum"]).reshape(field.shape_out + (-1,)))
+        logS = _log_source(field, res["S_sum"].reshape(field.shape_out + (-1,)))
     return field, res["S_sum"], logS
 
 
@@ -1004,7 +1060,7 @@ def multiple_scattering(
             if act.size == 0:
                 continue
             mc = _march(atm, r0, vb[act], s, field.grid.order)
-            out[i0 + act] = _gather(field, mc, S_sum, threads=_THREADS, logt=logS)
+            out[i0 + act] = _gather(field, mc, logS, *S_sum.shape[-2:], threads=_THREADS)
         return out
 
     if vf.shape[0] >= TABLE_THRESHOLD and r0 <= atm.top_radius:
