@@ -75,10 +75,11 @@ IES_TOLERANCE = 0.20  # "agrees with the measured mean": within this fraction
 def ies_clear_sky(elevation_deg):
     """IES (1984) clear-sky direct normal and diffuse horizontal illuminance [lx].
 
-    Air mass by Kasten & Young (1989); above 20° it differs from 1/sin h by < 0.5 %.
+    Air mass by Kasten & Young (1989) (:func:`atmoscatter.relative_optical_length`); above
+    20° it differs from 1/sin h by < 0.5 %.
     """
     h = np.asarray(elevation_deg, float)
-    m = 1.0 / (np.sin(np.radians(h)) + 0.50572 * (h + 6.07995) ** -1.6364)
+    m = ac.relative_optical_length(np.radians(90.0 - h), method="kasten_young")
     a, b, c = IES_CLEAR_SKY_ABC
     return (IES_SOLAR_ILLUMINANCE * np.exp(-IES_CLEAR_EXTINCTION * m),
             a + b * np.sin(np.radians(h)) ** c)
@@ -117,9 +118,9 @@ def _ies_ratios(rows, model):
     return {k: float(np.mean(v)) for k, v in out.items()}
 
 
-def _ies_turbidity(rows):
-    """The report turbidity whose reference best matches the IES means (sun ≥ 20°)."""
-    ref = _ies_ratios(rows, "reference")
+def _ies_turbidity(ref):
+    """The report turbidity whose reference best matches the IES means (sun ≥ 20°), from
+    ``ref = _ies_ratios(rows, "reference")``."""
     worst = {T: max((abs(np.log(v)) for (t, e), v in ref.items()
                      if t == T and e >= IES_MIN_ELEVATION), default=np.inf)
              for T in TURBIDITIES}
@@ -153,7 +154,7 @@ def ies_section(rows):
         f"{float(ies_clear_sky(e)[1]) / 1e3:.1f}" for e in els) + " |")
     lines.append("| IES direct normal [klx] | — | " + " | ".join(
         f"{float(ies_clear_sky(e)[0]) / 1e3:.1f}" for e in els) + " |")
-    tb = _ies_turbidity(rows)
+    tb = _ies_turbidity(ref)
     hi = [v for (T, e), v in ref.items() if T == tb and e >= IES_MIN_ELEVATION]
     if hi:
         lines += ["", f"The IES clear sky is closest to T = {tb:g} of this package's turbidity "
@@ -464,7 +465,7 @@ def _span(values, fmt="{:.2g}"):
 
 def _verdicts(rows, tested):
     """Plain-language verdict per model, every figure computed from ``rows``."""
-    tb = _ies_turbidity(rows)
+    tb = _ies_turbidity(_ies_ratios(rows, "reference"))
     out = ["### Verdicts", "",
            "Four measured criteria, each generated from the tables below: *level* — the "
            "model's luminance against the reference's without rescaling (passes where the "
