@@ -215,6 +215,28 @@ class TestSunDisc:
         assert np.count_nonzero(diff) == 1
         assert (diff * om).sum() == pytest.approx(expected, rel=1e-5)
 
+    def test_disc_never_changes_the_models_arrays(self):
+        # the disc is added to a copy (made only for batches that contain it), so a model
+        # that hands out the same array every call is left intact
+        held = {}
+
+        def prepare(sc, p):
+            def evaluate(d):
+                held.setdefault("xyz", np.full((len(d), 3), 1000.0))
+                return {"XYZ": held["xyz"][: len(d)]}
+            return evaluate
+
+        register_model(ModelAdapter(name="toy_held", description="x", prepare=prepare),
+                       replace=True)
+        try:
+            s = scene(model="toy_held", sun_disc=True, sun_elevation_deg=40.0,
+                      projection="latlong", width=1024, height=512)
+            img = ac.render(s, batch_size=4096, workers=1)
+        finally:
+            unregister_model("toy_held")
+        assert np.all(held["xyz"] == 1000.0)
+        assert img.rgb.max() > 1e6  # the disc was drawn
+
     def test_transmittance_is_physical(self):
         # clear, high sun: the direct beam at the ground is ~ 0.7-0.9 of the ETR at 550 nm
         s = scene(sun_elevation_deg=60.0, turbidity=2.0)

@@ -189,29 +189,36 @@ class _Context:
                 if spec is not None:
                     spec[below] = self.ground_spec
         if self.disc is not None:
-            vals = np.array(vals, dtype=float)  # own copy: the disc is added in place
-            if spec is not None:
-                spec = np.array(spec, dtype=float)
-            mask = np.ones(n, dtype=bool) if todo is None else todo
-            self._add_disc(dirs, mask, vals, spec, start)
+            vals, spec = self._add_disc(dirs, todo, vals, spec, start)
         return {"values": vals, "spectral": spec, "alpha": todo}
 
     def _add_disc(self, dirs, todo, vals, spec, start):
+        """Add the sun disc to the directions inside it; ``todo`` None: all were evaluated.
+
+        Returns ``(vals, spec)``: copies with the disc added when a direction of the batch
+        is inside it (the model's arrays are never changed), else the inputs themselves
+        (most batches miss the disc, and a copy of every batch was a measurable part of
+        the evaluator's own cost)."""
         xyz, alpha = self.disc
         c = dirs @ self.sun
-        inside = todo & (c >= math.cos(alpha))
+        inside = c >= math.cos(alpha)
+        if todo is not None:
+            inside &= todo
         if inside.any():
+            vals = np.array(vals, dtype=float)  # own copy: the disc is added in place
             rho = np.arccos(np.clip(c[inside], -1.0, 1.0)) / alpha
             ld = 1.0 - LIMB_DARKENING_U * (1.0 - np.sqrt(np.maximum(1.0 - rho**2, 0.0)))
             vals[inside] += ld[:, None] * xyz
             if spec is not None:
+                spec = np.array(spec, dtype=float)
                 spec[inside] += ld[:, None] * self.disc_spec
-        cm = np.where(todo, c, -2.0)
+        cm = c if todo is None else np.where(todo, c, -2.0)
         i = int(np.argmax(cm)) if len(cm) else 0
         with self.lock:
             self.disc_hit |= bool(inside.any())
             if len(cm) and cm[i] > self.nearest[0]:
                 self.nearest = (float(cm[i]), start + i)
+        return vals, spec
 
 
 def _default_workers():
