@@ -99,6 +99,10 @@ GENERATORS: tuple[Generator, ...] = (
         "~45 min", full_needs="--with-ms-study",
         notes="multiple scattering: error against build time per grid knob"),
     Generator(
+        "ms_accurate_grid", "benchmarks/ms_accurate_grid.py", (), ("--quick", "--out", "{out}"),
+        ("docs/convergence/ms_accurate_grid.md",), "~40 min", full_needs="--with-ms-study",
+        notes="multiple scattering: default and accurate grid against a grid finer in every knob"),
+    Generator(
         "startup", "benchmarks/bench_startup.py", ("--write",), ("--quick",),
         ("docs/cli.md",), "~1 min", notes="start-up and first-render times of the CLI"),
     Generator(

@@ -536,3 +536,34 @@ def test_altitude_refinement_of_the_log_source():
     assert rest == field.shape_fine[1:]
     with pytest.raises(ValueError, match="altitude_refine"):
         MultipleScatteringGrid(altitude_refine=0)
+
+
+def test_accurate_grid_is_finer_than_the_default_where_the_default_misses(monkeypatch):
+    # docs/convergence.md ("The accurate grid"): the default's worst errors are in the
+    # horizon band of hazy skies (altitude), the zenith cap and the limb (view zenith) and
+    # twilight (solar zenith); the accurate grid refines those three and coarsens nothing
+    from atmoscatter.sky.multiple import (
+        ACCURATE_MULTIPLE_SCATTERING_GRID as acc,
+    )
+    from atmoscatter.sky.multiple import (
+        MULTIPLE_SCATTERING_GRID as default,
+    )
+
+    for knob in ("n_altitude", "n_sun", "n_mu"):
+        assert getattr(acc, knob) > getattr(default, knob), knob
+    for knob in ("n_phi", "order", "altitude_refine"):
+        assert getattr(acc, knob) >= getattr(default, knob), knob
+    assert (acc.max_sun_zenith, acc.horizon_density) == (default.max_sun_zenith,
+                                                          default.horizon_density)
+    # the measured statement names the grid it measured (importing the benchmark turns the
+    # disk cache off in os.environ: monkeypatch restores it)
+    from pathlib import Path
+
+    monkeypatch.setenv("ATMOSCATTER_CACHE_DIR", "off")
+    monkeypatch.syspath_prepend(str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    import ms_accurate_grid
+
+    assert ms_accurate_grid.GRIDS["accurate"][0] == acc
+    ref = ms_accurate_grid.REFERENCE[0]
+    for knob in ("n_altitude", "n_sun", "n_mu", "n_phi", "order"):
+        assert getattr(ref, knob) > getattr(acc, knob), knob

@@ -7,6 +7,9 @@ multiple_scattering
     orders of scattering (``orders=1`` is :func:`atmoscatter.single_scattering`).
 MULTIPLE_SCATTERING_GRID
     The default grid of the precomputed radiance field (documents its resolution).
+ACCURATE_MULTIPLE_SCATTERING_GRID
+    A finer grid, about twice the first-call cost, for the 1 % bound at low sun, in haze
+    and across the limb.
 
 Method (successive orders, seed 004's recursion)::
 
@@ -97,7 +100,8 @@ from ._single_rules import _Batch, _extinction_scale
 from ._sky_table import _SkyTable
 from .single import TABLE_THRESHOLD, _prepare_inputs, single_scattering
 
-__all__ = ["multiple_scattering", "MULTIPLE_SCATTERING_GRID", "MultipleScatteringGrid"]
+__all__ = ["multiple_scattering", "MULTIPLE_SCATTERING_GRID", "ACCURATE_MULTIPLE_SCATTERING_GRID",
+           "MultipleScatteringGrid"]
 
 
 @dataclass(frozen=True)
@@ -183,6 +187,14 @@ class MultipleScatteringGrid:
 
 MULTIPLE_SCATTERING_GRID = MultipleScatteringGrid()
 """Default grid (chosen from the error-against-run-time study in ``docs/convergence.md``)."""
+
+ACCURATE_MULTIPLE_SCATTERING_GRID = MultipleScatteringGrid(n_altitude=28, n_sun=40, n_mu=32)
+"""A finer grid for the 1 % total-radiance bound at low sun, in haze and across the limb
+(``grid=ACCURATE_MULTIPLE_SCATTERING_GRID``): finer in altitude (the horizon band of hazy
+skies), view zenith (the zenith cap, the limb) and solar zenith (twilight); about twice the
+default's first-call cost.  Its error against a grid refined beyond it, next to the
+default's, is measured by ``benchmarks/ms_accurate_grid.py``
+(``docs/convergence/ms_accurate_grid.md``)."""
 
 DEFAULT_ORDER_TOLERANCE: float = 1e-3
 """Default ``order_tolerance`` of :func:`multiple_scattering` (relative error of the summed

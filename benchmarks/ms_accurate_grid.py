@@ -1,0 +1,113 @@
+"""Default against accurate multiple-scattering grid, both against a grid refined beyond them.
+
+Usage (from the repository root)::
+
+    PYTHONPATH=. python benchmarks/ms_accurate_grid.py           # -> docs/convergence/ms_accurate_grid.md
+    PYTHONPATH=. python benchmarks/ms_accurate_grid.py --quick   # tiny grids -> a temp dir
+
+The scenes, the error measure and the timing rules are those of
+``benchmarks/ms_convergence.py`` (every scene of :data:`ms_convergence.SCENES`); the
+reference here is finer than :data:`~atmoscatter.sky.multiple.ACCURATE_MULTIPLE_SCATTERING_GRID`
+in *every* knob (a reference equal to a grid in some knob would report no error from
+that knob), so it also checks the default grid against more than the study's reference.
+The reference is the same method refined: its agreement with outside answers is the
+subject of ``scripts/ms_reference_check.py`` (DISORT, Monte Carlo).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+import ms_convergence as mc  # noqa: E402  (sets ATMOSCATTER_CACHE_DIR=off first)
+
+import atmoscatter  # noqa: E402
+from atmoscatter.sky import multiple as ms  # noqa: E402
+from atmoscatter.sky.multiple import MultipleScatteringGrid  # noqa: E402
+
+REFERENCE = (MultipleScatteringGrid(n_altitude=36, n_sun=64, n_mu=40, n_phi=25, order=4), 1e-5)
+GRIDS = {"default": mc.DEFAULT,
+         "accurate": (ms.ACCURATE_MULTIPLE_SCATTERING_GRID, ms.DEFAULT_ORDER_TOLERANCE)}
+QUICK_REFERENCE = mc.QUICK_REFERENCE
+QUICK_GRIDS = {"default": mc.QUICK_DEFAULT,
+               "accurate": (MultipleScatteringGrid(n_altitude=5, n_sun=8, n_mu=4, n_phi=3, order=2),
+                            1e-2)}
+
+
+def run(scenes, grids, reference, progress=print):
+    by_atm = {}
+    for s in scenes:
+        by_atm.setdefault(mc.SCENES[s][0], []).append(s)
+    v, sun, _ = mc.scene_geometry("clear_noon")  # warm-up: kernels compiled outside timings
+    ms.multiple_scattering(mc.ATMOSPHERES["mars"](), v[:2], sun, grid=mc.QUICK_DEFAULT[0],
+                           order_tolerance=1e-2)
+    rows, builds, t_ref = {}, {}, {}
+    for akey, names in by_atm.items():
+        atm = mc.ATMOSPHERES[akey]()
+        single = {n: atmoscatter.single_scattering(atm, *mc.scene_geometry(n)[:2],
+                                                   altitude=mc.scene_geometry(n)[2]) for n in names}
+        ref, t_ref[akey], _ = mc.evaluate(atm, names, reference)
+        progress(f"{akey}: reference built in {t_ref[akey]:.0f} s")
+        for g, cfg in grids.items():
+            out, builds[(akey, g)], _ = mc.evaluate(atm, names, cfg)
+            progress(f"{akey}: {g} built in {builds[(akey, g)]:.1f} s")
+            for n in names:
+                rows[(n, g)] = mc.errors(out[n], ref[n], single[n])
+    return rows, builds, t_ref
+
+
+def markdown(scenes, grids, reference, rows, builds, t_ref, machine, command):
+    atms = list(dict.fromkeys(mc.SCENES[s][0] for s in scenes))
+    lines = [
+        "Max relative error of the total / of the multiple-scattering part against the grid "
+        f"{mc._grid_text(reference)} (finer than both grids in every knob); directions below "
+        f"{mc.FLOOR:g} of the scene maximum ignored; scenes as in the study above.",
+        "",
+        "| grid | " + " | ".join(f"first call {a} [s]" for a in atms) + " | "
+        + " | ".join(scenes) + " |",
+        "|---|" + "---:|" * len(atms) + "---|" * len(scenes),
+    ]
+    for g, cfg in grids.items():
+        b = " | ".join(f"{builds[(a, g)]:.1f}" for a in atms)
+        e = " | ".join(f"{mc._fmt(rows[(s, g)][0])} / {mc._fmt(rows[(s, g)][1])}" for s in scenes)
+        lines.append(f"| {g} ({mc._grid_text(cfg)}) | {b} | {e} |")
+    worst = {g: max(rows[(s, g)][0] for s in scenes if mc.SCENES[s][1] >= -12.0) for g in grids}
+    lines += ["", "Worst total error down to sun −12°: " + ", ".join(
+        f"{g} {100 * w:.2g} %" for g, w in worst.items()) + ".  Reference first call: "
+        + ", ".join(f"{a} {t:.0f} s" for a, t in t_ref.items()) + ".", "",
+        f"*{machine}, {time.strftime('%Y-%m-%d')}; `{command}`.*"]
+    return "\n".join(lines) + "\n"
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help="tiny grids, two scenes, temp dir")
+    ap.add_argument("--out", default=None, help="output directory (default docs/convergence)")
+    args = ap.parse_args(argv)
+    if args.quick:
+        scenes, grids, reference = ["clear_noon", "civil_twilight"], QUICK_GRIDS, QUICK_REFERENCE
+        out = Path(args.out or tempfile.mkdtemp(prefix="atmoscatter-ms-accurate-"))
+    else:
+        scenes, grids, reference = list(mc.SCENES), GRIDS, REFERENCE
+        out = Path(args.out or mc.ROOT / "docs" / "convergence")
+    t0 = time.perf_counter()
+    rows, builds, t_ref = run(scenes, grids, reference)
+    import os  # noqa: PLC0415
+
+    machine = (f"{os.cpu_count()} CPUs (shared with other jobs, so times are noisy), "
+               f"{ms._THREADS} threads")
+    command = "PYTHONPATH=. python benchmarks/ms_accurate_grid.py" + (" --quick" if args.quick else "")
+    text = markdown(scenes, grids, reference, rows, builds, t_ref, machine, command)
+    mc._atomic_write(out / "ms_accurate_grid.md", text)
+    print(text)
+    print(f"wrote {out / 'ms_accurate_grid.md'} in {time.perf_counter() - t0:.0f} s")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
