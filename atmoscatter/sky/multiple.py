@@ -8,8 +8,8 @@ multiple_scattering
 MULTIPLE_SCATTERING_GRID
     The default grid of the precomputed radiance field (documents its resolution).
 ACCURATE_MULTIPLE_SCATTERING_GRID
-    A finer grid, about twice the first-call cost, for the 1 % bound at low sun, in haze
-    and across the limb.
+    A finer grid, two to three times the first-call cost, for the 1 % bound at low sun, in
+    haze and across the limb.
 
 Method (successive orders, seed 004's recursion)::
 
@@ -191,8 +191,8 @@ MULTIPLE_SCATTERING_GRID = MultipleScatteringGrid()
 ACCURATE_MULTIPLE_SCATTERING_GRID = MultipleScatteringGrid(n_altitude=28, n_sun=40, n_mu=32)
 """A finer grid for the 1 % total-radiance bound at low sun, in haze and across the limb
 (``grid=ACCURATE_MULTIPLE_SCATTERING_GRID``): finer in altitude (the horizon band of hazy
-skies), view zenith (the zenith cap, the limb) and solar zenith (twilight); about twice the
-default's first-call cost.  Its error against a grid refined beyond it, next to the
+skies), view zenith (the zenith cap, the limb) and solar zenith (twilight); two to three
+times the default's first-call cost.  Its error against a grid refined beyond it, next to the
 default's, is measured by ``benchmarks/ms_accurate_grid.py``
 (``docs/convergence/ms_accurate_grid.md``)."""
 
