@@ -26,7 +26,6 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import ms_convergence as mc  # noqa: E402  (sets ATMOSCATTER_CACHE_DIR=off first)
 
-import atmoscatter  # noqa: E402
 from atmoscatter.sky import multiple as ms  # noqa: E402
 from atmoscatter.sky.multiple import MultipleScatteringGrid  # noqa: E402
 
@@ -40,17 +39,11 @@ QUICK_GRIDS = {"default": mc.QUICK_DEFAULT,
 
 
 def run(scenes, grids, reference, progress=print):
-    by_atm = {}
-    for s in scenes:
-        by_atm.setdefault(mc.SCENES[s][0], []).append(s)
-    v, sun, _ = mc.scene_geometry("clear_noon")  # warm-up: kernels compiled outside timings
-    ms.multiple_scattering(mc.ATMOSPHERES["mars"](), v[:2], sun, grid=mc.QUICK_DEFAULT[0],
-                           order_tolerance=1e-2)
+    mc.warm_up()
     rows, builds, t_ref = {}, {}, {}
-    for akey, names in by_atm.items():
+    for akey, names in mc.by_atmosphere(scenes).items():
         atm = mc.ATMOSPHERES[akey]()
-        single = {n: atmoscatter.single_scattering(atm, *mc.scene_geometry(n)[:2],
-                                                   altitude=mc.scene_geometry(n)[2]) for n in names}
+        single = mc.single_of(atm, names)
         ref, t_ref[akey], _ = mc.evaluate(atm, names, reference)
         progress(f"{akey}: reference built in {t_ref[akey]:.0f} s")
         for g, cfg in grids.items():
@@ -97,10 +90,7 @@ def main(argv=None) -> int:
         out = Path(args.out or mc.ROOT / "docs" / "convergence")
     t0 = time.perf_counter()
     rows, builds, t_ref = run(scenes, grids, reference)
-    import os  # noqa: PLC0415
-
-    machine = (f"{os.cpu_count()} CPUs (shared with other jobs, so times are noisy), "
-               f"{ms._THREADS} threads")
+    machine = mc.machine_text()
     command = "PYTHONPATH=. python benchmarks/ms_accurate_grid.py" + (" --quick" if args.quick else "")
     text = markdown(scenes, grids, reference, rows, builds, t_ref, machine, command)
     mc._atomic_write(out / "ms_accurate_grid.md", text)

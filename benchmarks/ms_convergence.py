@@ -184,20 +184,41 @@ def configs(knobs, default):
                 yield knob, val, (replace(grid0, **{knob: int(val)}), tol0)
 
 
-def study(scenes, knobs, default, reference, sweep_atms, progress=print, on_atmosphere=None):
-    by_atm = {}
+def by_atmosphere(scenes) -> dict:
+    """``{atmosphere key: [scene names]}`` in the order of ``scenes``."""
+    out = {}
     for s in scenes:
-        by_atm.setdefault(SCENES[s][0], []).append(s)
-    records, refinfo = [], {}
-    # warm-up: compile kernels / fill import-time tables outside any timed call
-    warm = ATMOSPHERES["mars"]()
+        out.setdefault(SCENES[s][0], []).append(s)
+    return out
+
+
+def warm_up():
+    """Compile the kernels and fill import-time tables outside any timed call."""
     v, sun, _ = scene_geometry("clear_noon")
-    ms.multiple_scattering(warm, v[:2], sun, grid=QUICK_DEFAULT[0], order_tolerance=1e-2)
-    for akey, names in by_atm.items():
+    ms.multiple_scattering(ATMOSPHERES["mars"](), v[:2], sun, grid=QUICK_DEFAULT[0],
+                           order_tolerance=1e-2)
+
+
+def single_of(atm, names) -> dict:
+    """Single scattering (exact, order 1) of each scene: the MS part is total − this."""
+    out = {}
+    for n in names:
+        v, sun, alt = scene_geometry(n)
+        out[n] = atmoscatter.single_scattering(atm, v, sun, altitude=alt)
+    return out
+
+
+def machine_text() -> str:
+    return (f"{os.cpu_count()} CPUs (shared with other jobs, so times are noisy), "
+            f"{ms._THREADS} threads")
+
+
+def study(scenes, knobs, default, reference, sweep_atms, progress=print, on_atmosphere=None):
+    records, refinfo = [], {}
+    warm_up()
+    for akey, names in by_atmosphere(scenes).items():
         atm = ATMOSPHERES[akey]()
-        single = {n: atmoscatter.single_scattering(atm, *scene_geometry(n)[:2],
-                                                   altitude=scene_geometry(n)[2])
-                  for n in names}
+        single = single_of(atm, names)
         ref, t_ref, _ = evaluate(atm, names, reference)
         refinfo[akey] = t_ref
         progress(f"{akey}: reference built in {t_ref:.1f} s")
@@ -376,8 +397,7 @@ def replot(out: Path, official: bool):
             r[k] = float(r[k])
     plot(records, out / "ms_convergence.png", SWEEP_ATMOSPHERES[0])
     if official:
-        machine = (f"{os.cpu_count()} CPUs (shared with other jobs, so times are noisy), "
-                   f"{ms._THREADS} threads")
+        machine = machine_text()
         js = accuracy_json(records, DEFAULT, REFERENCE, machine)
         js["command"] = "PYTHONPATH=. python benchmarks/ms_convergence.py"
         _atomic_write(ROOT / "atmoscatter" / "data" / "ms_accuracy.json", json.dumps(js, indent=1) + "\n")
@@ -426,8 +446,7 @@ def main(argv=None) -> int:
         knobs, default, reference = KNOBS, DEFAULT, REFERENCE
         out = Path(args.out or ROOT / "docs" / "convergence")
     sweep = tuple(ATMOSPHERES) if args.sweep_all else SWEEP_ATMOSPHERES
-    machine = (f"{os.cpu_count()} CPUs (shared with other jobs, so times are noisy), "
-               f"{ms._THREADS} threads")
+    machine = machine_text()
     t0 = time.perf_counter()
     state = {}
 

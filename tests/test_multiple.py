@@ -542,12 +542,7 @@ def test_accurate_grid_is_finer_than_the_default_where_the_default_misses(monkey
     # docs/convergence.md ("The accurate grid"): the default's worst errors are in the
     # horizon band of hazy skies (altitude), the zenith cap and the limb (view zenith) and
     # twilight (solar zenith); the accurate grid refines those three and coarsens nothing
-    from atmoscatter.sky.multiple import (
-        ACCURATE_MULTIPLE_SCATTERING_GRID as acc,
-    )
-    from atmoscatter.sky.multiple import (
-        MULTIPLE_SCATTERING_GRID as default,
-    )
+    acc, default = ac.ACCURATE_MULTIPLE_SCATTERING_GRID, ac.MULTIPLE_SCATTERING_GRID
 
     for knob in ("n_altitude", "n_sun", "n_mu"):
         assert getattr(acc, knob) > getattr(default, knob), knob

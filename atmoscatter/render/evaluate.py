@@ -204,7 +204,8 @@ class _Context:
         inside = c >= math.cos(alpha)
         if todo is not None:
             inside &= todo
-        if inside.any():
+        hit = bool(inside.any())
+        if hit:
             vals = np.array(vals, dtype=float)  # own copy: the disc is added in place
             rho = np.arccos(np.clip(c[inside], -1.0, 1.0)) / alpha
             ld = 1.0 - LIMB_DARKENING_U * (1.0 - np.sqrt(np.maximum(1.0 - rho**2, 0.0)))
@@ -215,7 +216,7 @@ class _Context:
         cm = c if todo is None else np.where(todo, c, -2.0)
         i = int(np.argmax(cm)) if len(cm) else 0
         with self.lock:
-            self.disc_hit |= bool(inside.any())
+            self.disc_hit |= hit
             if len(cm) and cm[i] > self.nearest[0]:
                 self.nearest = (float(cm[i]), start + i)
         return vals, spec
