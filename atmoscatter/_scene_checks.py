@@ -137,6 +137,15 @@ def _validate(s: Scene) -> None:
     _check(0.0 <= s.ground_albedo <= 1.0, f"ground_albedo must be in [0, 1], got {s.ground_albedo!r}")
     if s.orders is not None:
         _check(1 <= s.orders <= MAX_ORDERS, f"orders must be in [1, {MAX_ORDERS}], got {s.orders!r}")
+    if s.ms_grid is not None:
+        from .sky.multiple import MULTIPLE_SCATTERING_GRIDS  # noqa: PLC0415 - kernels load later
+
+        _check(s.model == "multiple_scattering",
+               f"ms_grid={s.ms_grid!r} only applies to model='multiple_scattering' (the grid "
+               f"of its radiance field), not to model={s.model!r}")
+        _check(s.ms_grid in MULTIPLE_SCATTERING_GRIDS,
+               f"ms_grid={s.ms_grid!r} is not valid; choose one of "
+               f"{sorted(MULTIPLE_SCATTERING_GRIDS)}")
     if s.method is not None:
         # accepted only where it has an effect (it used to be ignored silently elsewhere)
         from .sky.single import SINGLE_SCATTERING_METHODS  # noqa: PLC0415 - light module

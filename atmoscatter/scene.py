@@ -106,6 +106,13 @@ class Scene:
     orders : int or None
         Scattering orders of ``multiple_scattering`` in [1, 1000] (1 = single
         scattering; ``None`` = that function's default).
+    ms_grid : str or None
+        Field grid of ``multiple_scattering``, a key of
+        :data:`atmoscatter.MULTIPLE_SCATTERING_GRIDS`: ``default`` (``None`` means this)
+        or ``accurate`` (within 1 % of the total down to sun −12° where the default misses
+        it — haze, twilight, the limb — for two to three times the first call; see
+        ``docs/convergence.md``).  The EXR header quotes the measured error of the grid
+        used.  Any other model with a grid set is an error.
     sampling : str
         ``rgb`` (the atmosphere's three sample wavelengths 680/550/440 nm),
         ``spectral`` (380–780 nm every ``wavelength_step`` nm) or ``auto``
@@ -185,6 +192,7 @@ class Scene:
     atmosphere: str = "earth"
     ground_albedo: float = 0.0
     orders: int | None = None
+    ms_grid: str | None = None
     sampling: str = "auto"
     wavelength_step: float = 10.0
     output: str = "rgb"

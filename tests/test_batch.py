@@ -253,10 +253,16 @@ class TestResumeFingerprint:
         ss_scene = Scene(model="single_scattering", width=8, height=4)
         an_scene = Scene(model="preetham", width=8, height=4)
         before = [scene_fingerprint(s) for s in (ms_scene, ss_scene, an_scene)]
-        monkeypatch.setattr(multiple, "MULTIPLE_SCATTERING_GRID",
+        # the renderer takes its grids from the named grids (Scene.ms_grid)
+        acc_scene = Scene(model="multiple_scattering", ms_grid="accurate", width=8, height=4)
+        acc_before = scene_fingerprint(acc_scene)
+        monkeypatch.setitem(multiple.MULTIPLE_SCATTERING_GRIDS, "default",
                             replace(multiple.MULTIPLE_SCATTERING_GRID, n_phi=5))
         after = [scene_fingerprint(s) for s in (ms_scene, ss_scene, an_scene)]
         assert after[0] != before[0] and after[1:] == before[1:]
+        monkeypatch.setitem(multiple.MULTIPLE_SCATTERING_GRIDS, "accurate",
+                            replace(multiple.ACCURATE_MULTIPLE_SCATTERING_GRID, n_phi=5))
+        assert scene_fingerprint(acc_scene) != acc_before
         monkeypatch.setattr(single, "TWILIGHT_TABLE_THRESHOLD", 7)
         assert scene_fingerprint(ss_scene) != before[1]
         assert scene_fingerprint(an_scene) == before[2]

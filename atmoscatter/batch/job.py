@@ -27,7 +27,10 @@ def _numerical_defaults(model: str) -> dict:
                       single.DEFAULT_SINGLE_SCATTERING_SAMPLES, single.TABLE_THRESHOLD,
                       single.TWILIGHT_TABLE_THRESHOLD, single.TABLE_FLOOR]}
     if model == "multiple_scattering":
-        out["multiple"] = [repr(multiple.MULTIPLE_SCATTERING_GRID), multiple._FIELD_VERSION]
+        # every named grid (Scene.ms_grid selects one by name: a change of either grid
+        # must re-render the files made with it)
+        out["multiple"] = [{k: repr(g) for k, g in multiple.MULTIPLE_SCATTERING_GRIDS.items()},
+                           multiple._FIELD_VERSION]
     return out
 
 

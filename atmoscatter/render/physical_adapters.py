@@ -104,6 +104,7 @@ def _make_physical_prepare(function_name):
             kwargs["ground_albedo"] = scene.ground_albedo
             if scene.orders is not None:
                 kwargs["orders"] = scene.orders
+            kwargs["grid"] = _ms_grid(scene)[1]
         elif scene.method is not None:
             kwargs["method"] = scene.method
         elif function_name == "single_scattering" and _render_uses_table(scene, atm, sun):
@@ -186,10 +187,13 @@ _MS_ACCURACY: dict = {}
 
 
 def ms_accuracy() -> dict:
-    """Measured default-grid errors of ``multiple_scattering`` per regime.
+    """Measured errors of ``multiple_scattering`` per named grid and regime.
 
     Read (once, lazily) from ``atmoscatter/data/ms_accuracy.json``, written by
-    ``benchmarks/ms_convergence.py`` (full run; see ``docs/convergence.md``).
+    ``benchmarks/ms_accurate_grid.py`` (full run: each grid of
+    :data:`~atmoscatter.sky.multiple.MULTIPLE_SCATTERING_GRIDS` against a grid finer in
+    every knob; see ``docs/convergence.md``): ``acc["grids"][name]`` holds the worst
+    errors per sun regime (ground observer) and per observer regime.
     """
     if not _MS_ACCURACY:
         import json  # noqa: PLC0415
@@ -198,6 +202,14 @@ def ms_accuracy() -> dict:
         text = resources.files("atmoscatter").joinpath("data/ms_accuracy.json").read_text("utf-8")
         _MS_ACCURACY.update(json.loads(text))
     return _MS_ACCURACY
+
+
+def _ms_grid(scene):
+    """(name, grid) of the scene's ``ms_grid`` (``None``: the default grid)."""
+    from ..sky.multiple import MULTIPLE_SCATTERING_GRIDS  # noqa: PLC0415
+
+    name = scene.ms_grid or "default"
+    return name, MULTIPLE_SCATTERING_GRIDS[name]
 
 
 def _ms_regimes(scene) -> tuple[str, str]:
@@ -217,16 +229,17 @@ def _ms_regimes(scene) -> tuple[str, str]:
     return sun, "elevated" if scene.altitude < top else "space"
 
 
-def _ms_accuracy_current(acc: dict) -> bool:
-    """The measurement is of the installed method (field version) and default grid."""
+def _ms_accuracy_current(acc: dict, name: str = "default") -> bool:
+    """The measurement of grid ``name`` is of the installed method (field version) and of
+    that grid as installed."""
     import dataclasses  # noqa: PLC0415
 
     from ..sky import multiple  # noqa: PLC0415
 
-    grid = {**dataclasses.asdict(multiple.MULTIPLE_SCATTERING_GRID),
+    grid = {**dataclasses.asdict(multiple.MULTIPLE_SCATTERING_GRIDS[name]),
             "order_tolerance": multiple.DEFAULT_ORDER_TOLERANCE}
-    return (acc.get("field_version") == multiple._FIELD_VERSION
-            and acc.get("default_grid_fields") == grid)
+    measured = acc.get("grids", {}).get(name, {})
+    return acc.get("field_version") == multiple._FIELD_VERSION and measured.get("grid_fields") == grid
 
 
 def _pct(x: float) -> str:
@@ -234,25 +247,27 @@ def _pct(x: float) -> str:
 
 
 def _ms_error_estimate(scene) -> str:
-    """The measured default-grid error of ``multiple_scattering`` for the scene's regime."""
+    """The measured error of ``multiple_scattering`` on the scene's grid for its regime."""
+    name, _ = _ms_grid(scene)
     try:
         acc = ms_accuracy()
         sun, obs = _ms_regimes(scene)
+        measured = acc["grids"][name]
         if obs == "ground":
-            r = acc["sun_regimes_ground_observer"][sun]
+            r = measured["sun_regimes_ground_observer"][sun]
             where = r["description"]
         else:
-            r = acc["observer_regimes"][obs]
+            r = measured["observer_regimes"][obs]
             sun_deg = ", ".join(f"{e:g}°" for e in r["sun_elevations_deg"])
             where = f"an {r['description']} (measured with the sun at {sun_deg})"
     except (OSError, KeyError, ValueError):
-        return "multiple scattering on the default grid; measured accuracy not available"
-    text = (f"multiple scattering, default grid: max {_pct(r['max_rel_total'])} of total "
+        return f"multiple scattering on the {name} grid; measured accuracy not available"
+    text = (f"multiple scattering, {name} grid: max {_pct(r['max_rel_total'])} of total "
             f"({_pct(r['max_rel_ms'])} of the MS part) for {where}, measured against a "
-            "refined grid (docs/convergence.md)")
-    if not _ms_accuracy_current(acc):
-        text += ("; CAUTION: measured for another version of the method or default grid "
-                 "(rerun benchmarks/ms_convergence.py)")
+            "grid finer in every knob (docs/convergence.md)")
+    if not _ms_accuracy_current(acc, name):
+        text += (f"; CAUTION: measured for another version of the method or of the {name} "
+                 "grid (rerun benchmarks/ms_accurate_grid.py)")
     if scene.orders is not None:
         text += (f"; measured with automatic orders, this scene fixes orders={scene.orders} "
                  "(fewer orders are biased low)")

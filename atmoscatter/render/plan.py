@@ -458,10 +458,11 @@ def _numerics_text(scene: Scene) -> str:
                       f"{multiple._MAX_AUTO_ORDERS})")
         else:
             orders = f"{scene.orders} scattering order{'s' if scene.orders != 1 else ''} (fixed)"
-        g = dataclasses.asdict(multiple.MULTIPLE_SCATTERING_GRID)
+        name = scene.ms_grid or "default"
+        g = dataclasses.asdict(multiple.MULTIPLE_SCATTERING_GRIDS[name])
         grid = ", ".join(f"{k} {v:g}" for k, v in g.items())
         return (f"{orders}; order 1 by single_scattering, higher orders from a precomputed "
-                f"field on the grid {grid} (kept in the on-disk cache)")
+                f"field on the {name} grid ({grid}; kept in the on-disk cache)")
     if scene.model == "single_scattering":
         from ..sky import single  # noqa: PLC0415
 

@@ -10,6 +10,8 @@ MULTIPLE_SCATTERING_GRID
 ACCURATE_MULTIPLE_SCATTERING_GRID
     A finer grid, two to three times the first-call cost, for the 1 % bound at low sun, in
     haze and across the limb.
+MULTIPLE_SCATTERING_GRIDS
+    Both, by name (``"default"``, ``"accurate"``): what ``Scene.ms_grid`` selects.
 
 Method (successive orders, seed 004's recursion)::
 
@@ -45,8 +47,8 @@ by the exact density and transmittance on graded Gauss–Legendre panels.  With
 ``orders=None`` successive orders are summed until the geometric tail estimate is small
 and the tail itself is added (:meth:`_FieldState.converged_sum`).  Large batches (≥
 ``TABLE_THRESHOLD`` directions, observer inside the atmosphere) tabulate the smooth
-multiple-scattering part over the observer's sky (257 × 33 nodes) and interpolate it; a
-test proves the table gives the small-batch answer within 1 % of the multiple-scattering
+multiple-scattering part over the observer's sky (257 × 33 nodes; 513 × 65 with the sun
+more than 12° below the horizon) and interpolate it; a test proves the table gives the small-batch answer within 1 % of the multiple-scattering
 part in every regime where it is used.
 
 The field depends only on the atmosphere, the albedo, the grid and the order setting —
@@ -101,7 +103,7 @@ from ._sky_table import _SkyTable
 from .single import TABLE_THRESHOLD, _prepare_inputs, single_scattering
 
 __all__ = ["multiple_scattering", "MULTIPLE_SCATTERING_GRID", "ACCURATE_MULTIPLE_SCATTERING_GRID",
-           "MultipleScatteringGrid"]
+           "MULTIPLE_SCATTERING_GRIDS", "MultipleScatteringGrid"]
 
 
 @dataclass(frozen=True)
@@ -196,6 +198,11 @@ times the default's first-call cost.  Its error against a grid refined beyond it
 default's, is measured by ``benchmarks/ms_accurate_grid.py``
 (``docs/convergence/ms_accurate_grid.md``)."""
 
+MULTIPLE_SCATTERING_GRIDS = {"default": MULTIPLE_SCATTERING_GRID,
+                             "accurate": ACCURATE_MULTIPLE_SCATTERING_GRID}
+"""The named grids, by the name a scene gives (``Scene.ms_grid``, ``--set ms_grid=…``);
+the EXR header quotes each one's measured error (``atmoscatter/data/ms_accuracy.json``)."""
+
 DEFAULT_ORDER_TOLERANCE: float = 1e-3
 """Default ``order_tolerance`` of :func:`multiple_scattering` (relative error of the summed
 orders; the convergence study measures the default grid with it)."""
@@ -203,6 +210,14 @@ orders; the convergence study measures the default grid with it)."""
 #: (view-zenith, azimuth) nodes of the table used for the multiple-scattering part of large
 #: batches (≥ TABLE_THRESHOLD directions, observer inside the atmosphere)
 _MS_TABLE_NODES = (257, 33)
+#: the same with the sun lower than _DEEP_TWILIGHT_ELEVATION: there the multiple-scattering
+#: part changes fast near the horizon, in azimuth 60–80° from the sun and, seen from 12 km,
+#: in elevation just above the ground's horizon.  With 257 × 33 nodes up to 1.8 % of it was
+#: lost between the nodes at sun −18° (T 1.5–10, ground and 12 km); with 257 × 65, 1.1 %
+#: (T 10, 12 km, 2.5° below the horizontal); with 513 × 65, ≤ 0.8 %, for about 1.7× the
+#: table's cost (tests/test_multiple.py::test_large_batches_give_the_answer_of_small_ones)
+_MS_TABLE_NODES_DEEP_TWILIGHT = (513, 65)
+_DEEP_TWILIGHT_ELEVATION = -12.0  # [deg]
 
 _SUN_CENTRE, _SUN_WIDTH = 92.0, 16.0
 _HORIZON_SPLIT = True  # μ quadrature split at each altitude's horizon (see _Field)  # [deg] where the solar-zenith nodes are densest
@@ -1078,8 +1093,10 @@ def multiple_scattering(
     if vf.shape[0] >= TABLE_THRESHOLD and r0 <= atm.top_radius:
         # the multiple-scattering part is a smooth function of (view zenith, azimuth from
         # the sun), symmetric about the solar vertical: tabulate it like single scattering
+        deep = s[2] < np.sin(np.radians(_DEEP_TWILIGHT_ELEVATION))
+        n_mu_t, n_phi_t = _MS_TABLE_NODES_DEEP_TWILIGHT if deep else _MS_TABLE_NODES
         table = _SkyTable(
-            atm, r0, s, _MS_TABLE_NODES[0], _MS_TABLE_NODES[1], field.grid.order,
+            atm, r0, s, n_mu_t, n_phi_t, field.grid.order,
             values=lambda vv: direct(vv)[None], n_values=1, linear=True,
         )
         extra = np.concatenate(
