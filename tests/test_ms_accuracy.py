@@ -257,3 +257,41 @@ def test_ms_accurate_grid_quick_writes_the_header_figures(tmp_path):
         assert g["grid_fields"]["n_altitude"] >= 2 and "order_tolerance" in g["grid_fields"]
         for r in g["sun_regimes_ground_observer"].values():
             assert r["max_rel_ms"] >= r["max_rel_total"] * (1 - 1e-12) >= 0.0
+
+
+@pytest.mark.parametrize("model", ["single_scattering", "multiple_scattering"])
+def test_twilight_fisheye_uses_the_single_scattering_table(model, monkeypatch):
+    """A twilight sky evaluated in many calls uses the single-scattering table when the
+    whole sky is large enough (TWILIGHT_TABLE_THRESHOLD), not when one call is: a 256²
+    fisheye (51 000 sky directions, no mirror symmetry at this sun azimuth) took 49 s by
+    direct integration and 4.5 s with the table.  The order 1 of multiple scattering
+    follows the same rule."""
+    from atmoscatter.render.physical_adapters import _evaluated_directions
+    from atmoscatter.sky import single
+
+    seen = []
+
+    def fake(atmosphere, view_directions, sun_direction, **kw):
+        seen.append(kw.get("single_method" if model == "multiple_scattering" else "method"))
+        wl = atmosphere.wavelengths_array
+        return np.full(np.shape(view_directions)[:-1] + (wl.size,), 1e-3)
+
+    s = Scene(model=model, sun_elevation_deg=-6.0, sun_azimuth_deg=295.0,
+              projection="fisheye", width=256, height=256, sampling="rgb")
+    n = _evaluated_directions(s, symmetry=plan(s).symmetry)
+    assert n >= single.TWILIGHT_TABLE_THRESHOLD
+    assert n <= int(256 * 256 * math.pi / 4)  # a lower estimate of the sky pixels
+    previous = ac.MODELS.get(model)
+    monkeypatch.setattr(ac, model, fake, raising=False)
+    register_model(physical_adapter(model), replace=True)
+    try:
+        ac.render(s)
+        assert seen and set(seen) == {"table"}
+        seen.clear()
+        ac.render(Scene(model=model, sun_elevation_deg=-6.0, sun_azimuth_deg=295.0,
+                        projection="fisheye", width=64, height=64, sampling="rgb"))
+        assert seen and set(seen) == {None}  # small sky: the default chooses per call
+    finally:
+        unregister_model(model)
+        if previous is not None:
+            register_model(previous)

@@ -564,3 +564,23 @@ def test_accurate_grid_is_finer_than_the_default_where_the_default_misses(monkey
     ref = ms_accurate_grid.REFERENCE[0]
     for knob in ("n_altitude", "n_sun", "n_mu", "n_phi", "order"):
         assert getattr(ref, knob) > getattr(acc, knob), knob
+
+
+def test_single_method_sets_order_one_only():
+    """``single_method`` is passed to the order-1 ``single_scattering`` call (the renderer
+    passes "table" for whole twilight skies): the result differs from the default's by
+    exactly the difference of the two single-scattering answers, which the table keeps
+    within its stated 1e-3 (seed 002 table, tests/test_single.py)."""
+    atm = ac.earth_turbidity_atmosphere(2.5)
+    s = _dir(96.0, 180.0)  # sun 6° below the horizon
+    v = _cap_and_random_directions(n=200)
+    v = v[v[:, 2] > 0.02]
+    a = multiple_scattering(atm, v, s, grid=_COARSE, single_method="graded")
+    b = multiple_scattering(atm, v, s, grid=_COARSE, single_method="table")
+    sa = single_scattering(atm, v, s, method="graded")
+    sb = single_scattering(atm, v, s, method="table")
+    np.testing.assert_allclose(b - a, sb - sa, rtol=0, atol=1e-12 * np.max(a))
+    ok = a > 1e-8 * np.max(a)
+    assert np.max(np.abs(b[ok] / a[ok] - 1.0)) <= 1e-3
+    with pytest.raises(ValueError, match="method"):
+        multiple_scattering(atm, v[:2], s, grid=_COARSE, single_method="nope")

@@ -64,15 +64,24 @@ def _physical_wavelengths(scene):
     return (680.0, 550.0, 440.0)
 
 
-def _evaluated_directions(scene) -> int:
-    """Lower estimate of the number of directions a render of ``scene`` evaluates: its
-    pixels, halved for the ground an observer on the ground does not integrate and again
-    for the mirror symmetry about the solar vertical."""
+def _evaluated_directions(scene, symmetry: bool = True) -> int:
+    """Estimate of the number of directions a render of ``scene`` evaluates.
+
+    Lat-long, cube map and dome: the pixels, halved for the ground that an observer on the
+    ground does not integrate and again for the mirror symmetry about the solar vertical
+    where the plan uses it (``symmetry``) — a lower estimate.  Fisheye: the disc of the
+    upper hemisphere, π/4 of the pixels, not halved: it shows no ground, and its pixels
+    mirror onto each other only when the solar vertical lies along an image axis or
+    diagonal (a 256² fisheye with the sun at azimuth 295° evaluated all 51 468 of its
+    sky pixels)."""
     n = scene.width * (scene.width * 6 if scene.projection == "cubemap" else scene.height)
-    return n // 4
+    if scene.projection == "fisheye":
+        return int(n * math.pi / 4.0)
+    n //= 2
+    return n // 2 if symmetry else n
 
 
-def _render_uses_table(scene, atm, sun) -> bool:
+def _render_uses_table(scene, atm, sun, symmetry: bool = True) -> bool:
     """Whether ``single_scattering``'s default would use its table for the whole render."""
     from ..sky import _quadrature as qd  # noqa: PLC0415
     from ..sky import single  # noqa: PLC0415
@@ -82,7 +91,7 @@ def _render_uses_table(scene, atm, sun) -> bool:
     except (TypeError, ValueError, AttributeError):  # a duck-typed atmosphere: leave it be
         return False
     return single._table_allowed(prepared, float(scene.altitude), np.asarray(sun, float),
-                                 _evaluated_directions(scene))
+                                 _evaluated_directions(scene, symmetry))
 
 
 def _make_physical_prepare(function_name):
@@ -105,12 +114,16 @@ def _make_physical_prepare(function_name):
             if scene.orders is not None:
                 kwargs["orders"] = scene.orders
             kwargs["grid"] = _ms_grid(scene)[1]
+            if _render_uses_table(scene, atm, sun, bool(getattr(plan, "symmetry", True))):
+                kwargs["single_method"] = "table"  # order 1: as for single_scattering below
         elif scene.method is not None:
             kwargs["method"] = scene.method
-        elif function_name == "single_scattering" and _render_uses_table(scene, atm, sun):
+        elif function_name == "single_scattering" and _render_uses_table(
+                scene, atm, sun, bool(getattr(plan, "symmetry", True))):
             # the renderer calls the model once per batch: the default's choice of the
             # table must follow the whole sky's direction count, not the batch's (at
-            # twilight the table pays off from 65 536 directions, more than a batch)
+            # twilight the table pays off from TWILIGHT_TABLE_THRESHOLD directions, and a
+            # batch holds fewer sky directions than that)
             kwargs["method"] = "table"
         convert = _per_irradiance_converter(wl, rgb_sampled, plan)
 

@@ -1000,6 +1000,7 @@ def multiple_scattering(
     order_tolerance: float = DEFAULT_ORDER_TOLERANCE,
     grid: MultipleScatteringGrid | None = None,
     batch_size: int = 2048,
+    single_method: str | None = None,
 ):
     """Sky radiance with ``orders`` orders of scattering, per unit solar irradiance [sr⁻¹].
 
@@ -1042,6 +1043,11 @@ def multiple_scattering(
         11.25° apart, were chosen from it).
     batch_size : int
         Directions per batch of the gather (bounds memory).
+    single_method : str or None
+        ``method`` of the :func:`single_scattering` call that gives order 1 (``None``: its
+        default, which chooses by this call's direction count).  A renderer that
+        evaluates one sky in many calls passes ``"table"`` when the whole sky is large
+        enough for the table (the table is built once per sky and shared by the calls).
 
     Returns
     -------
@@ -1063,7 +1069,8 @@ def multiple_scattering(
     grid = MULTIPLE_SCATTERING_GRID if grid is None else grid
     if not isinstance(grid, MultipleScatteringGrid):
         raise TypeError(f"grid must be a MultipleScatteringGrid, got {type(grid).__name__}")
-    single = single_scattering(atmosphere, view_directions, sun_direction, altitude=altitude)
+    single = single_scattering(atmosphere, view_directions, sun_direction, altitude=altitude,
+                               method=single_method)
     if n_orders == 1:
         return single
     atm, v, finite, s, alt, out_dtype = _prepare_inputs(
