@@ -110,6 +110,17 @@ def _finite(scene, name):
     _check(v is None or math.isfinite(v), f"scene field {name} must be finite, got {v!r}")
 
 
+def _model_option(s: Scene, name: str, model: str, what: str, options) -> None:
+    """Scene field ``name`` (``None``: unset) is valid only for ``model`` and one of
+    ``options``."""
+    v = getattr(s, name)
+    if v is None:
+        return
+    _check(s.model == model,
+           f"{name}={v!r} only applies to model={model!r} ({what}), not to model={s.model!r}")
+    _check(v in options, f"{name}={v!r} is not valid; choose one of {sorted(options)}")
+
+
 def _validate(s: Scene) -> None:
     from .render.models import MODELS  # noqa: PLC0415 - models import nothing from here
 
@@ -137,25 +148,15 @@ def _validate(s: Scene) -> None:
     _check(0.0 <= s.ground_albedo <= 1.0, f"ground_albedo must be in [0, 1], got {s.ground_albedo!r}")
     if s.orders is not None:
         _check(1 <= s.orders <= MAX_ORDERS, f"orders must be in [1, {MAX_ORDERS}], got {s.orders!r}")
-    if s.ms_grid is not None:
-        from .sky.multiple import MULTIPLE_SCATTERING_GRIDS  # noqa: PLC0415 - kernels load later
+    # model-specific options: accepted only where they have an effect (the method used to
+    # be ignored silently elsewhere)
+    from .sky.multiple import MULTIPLE_SCATTERING_GRIDS  # noqa: PLC0415 - kernels load later
+    from .sky.single import SINGLE_SCATTERING_METHODS  # noqa: PLC0415 - light module
 
-        _check(s.model == "multiple_scattering",
-               f"ms_grid={s.ms_grid!r} only applies to model='multiple_scattering' (the grid "
-               f"of its radiance field), not to model={s.model!r}")
-        _check(s.ms_grid in MULTIPLE_SCATTERING_GRIDS,
-               f"ms_grid={s.ms_grid!r} is not valid; choose one of "
-               f"{sorted(MULTIPLE_SCATTERING_GRIDS)}")
-    if s.method is not None:
-        # accepted only where it has an effect (it used to be ignored silently elsewhere)
-        from .sky.single import SINGLE_SCATTERING_METHODS  # noqa: PLC0415 - light module
-
-        _check(s.model == "single_scattering",
-               f"method={s.method!r} only applies to model='single_scattering' (the "
-               f"quadrature of its view-path integral), not to model={s.model!r}")
-        _check(s.method in SINGLE_SCATTERING_METHODS,
-               f"method={s.method!r} is not valid; choose one of "
-               f"{sorted(SINGLE_SCATTERING_METHODS)}")
+    _model_option(s, "ms_grid", "multiple_scattering", "the grid of its radiance field",
+                  MULTIPLE_SCATTERING_GRIDS)
+    _model_option(s, "method", "single_scattering", "the quadrature of its view-path integral",
+                  SINGLE_SCATTERING_METHODS)
     _validate_daylight(s)
     _check(1.0 <= s.wavelength_step <= 100.0,
            f"wavelength_step must be in [1, 100] nm, got {s.wavelength_step!r}")
