@@ -426,7 +426,8 @@ def test_multiple_scattering_adapter_passes_orders_and_albedo(monkeypatch):
         s = scene(model="multiple_scattering", orders=3, ground_albedo=0.25, altitude=100.0,
                   width=8, height=4)
         ac.render(s)
-        assert seen[0] == {"altitude": 100.0, "ground_albedo": 0.25, "orders": 3}
+        assert seen[0] == {"altitude": 100.0, "ground_albedo": 0.25, "orders": 3,
+                           "grid": ac.MULTIPLE_SCATTERING_GRID}  # Scene.ms_grid unset
         seen.clear()
         ac.render(dataclasses.replace(s, orders=None))  # None: the function's default
         assert "orders" not in seen[0]
