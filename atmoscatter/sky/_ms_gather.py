@@ -28,6 +28,8 @@ without numba and the kernel's check in the tests.
 
 from __future__ import annotations
 
+from functools import cache
+
 import numpy as np
 
 __all__: list[str] = []
@@ -101,16 +103,20 @@ def gather_numpy(table, h_nodes, th_nodes, mu_nodes, h, mus, mu, cphi, wt, logt=
     return np.einsum("nmc,nmc->nc", wt, np.exp(acc).reshape(N, M, C))
 
 
+@cache
 def _kernels():
     """The compiled kernels (:mod:`._ms_kernels`), imported on first use so that importing
-    the package does not import numba; ``None`` without numba."""
+    the package does not import numba; ``None`` without numba (looked up once: the
+    field build asks for them per grid cell)."""
     from .._lazy import kernels
 
     k = kernels("atmoscatter.sky._ms_kernels")
     if k is None:  # pragma: no cover - numba is a declared dependency
         return None
     return {"locate_rows": k._locate_rows, "gather_log": k._gather_log,
-            "sun_transmittance": k.sun_transmittance, "march_weights": k.march_weights}
+            "gather_log6": k._gather_log6,
+            "sun_transmittance": k.sun_transmittance, "march_weights": k.march_weights,
+            "order1_path": k.order1_path}
 
 
 def have_kernel() -> bool:
@@ -203,6 +209,8 @@ class Located:
         C = logt.shape[-1]
         flat = np.ascontiguousarray(logt, dtype=np.float64).reshape(-1, C)
         out = np.empty((self.start.size - 1, C))
-        _kernels()["gather_log"](flat, n_s, n_mu, n_phi, self.th_nodes, self.start, self.base,
+        # six channels (two scatterers × RGB): the kernel written out for them
+        name = "gather_log6" if C == 6 and self.wt.shape[1] == 6 else "gather_log"
+        _kernels()[name](flat, n_s, n_mu, n_phi, self.th_nodes, self.start, self.base,
                                  self.frac, self.wt, out)
         return out

@@ -142,6 +142,76 @@ def _gather_log(logflat, n_s, n_mu, n_phi, th_nodes, start, base, frac, wt, out)
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
+def _gather_log6(logflat, n_s, n_mu, n_phi, th_nodes, start, base, frac, wt, out):  # pragma: no cover
+    """:func:`_gather_log` for exactly six channels (two scatterers × three wavelengths: the
+    RGB field of every Earth and Mars preset), written out so that the stencil weights,
+    the six interpolated logarithms and the six sums of a ray stay in registers
+    (1.4× faster on the 2-core machine: ``benchmarks/bench_multiple.py``).  The same
+    products in the same order as :func:`_gather_log` — the corners in the order of
+    :func:`_corner_weights`, each weight formed as ``((w_i w_k)(1 − f_φ)) l_q`` — so both
+    agree to round-off (``tests/test_multiple.py``)."""
+    N = start.shape[0] - 1
+    d_h = n_s * n_mu * n_phi
+    d_s = n_mu * n_phi
+    lf = logflat.ravel()
+    for n in range(N):
+        o0 = 0.0
+        o1 = 0.0
+        o2 = 0.0
+        o3 = 0.0
+        o4 = 0.0
+        o5 = 0.0
+        for s in range(start[n], start[n + 1]):
+            b = np.int64(base[s])
+            fi = np.float64(frac[s, 0])
+            fj = np.float64(frac[s, 1])
+            fk = np.float64(frac[s, 2])
+            fm = np.float64(frac[s, 3])
+            j = (b // d_s) % n_s
+            j0 = min(max(j - 1, 0), n_s - 4)
+            x = th_nodes[j] + fj * (th_nodes[j + 1] - th_nodes[j])
+            l0, l1, l2, l3 = _lagrange4(th_nodes[j0], th_nodes[j0 + 1], th_nodes[j0 + 2],
+                                        th_nodes[j0 + 3], x)
+            bb = b + (j0 - j) * d_s
+            a0 = 0.0
+            a1 = 0.0
+            a2 = 0.0
+            a3 = 0.0
+            a4 = 0.0
+            a5 = 0.0
+            for di in range(2):
+                wi = fi if di == 1 else 1.0 - fi
+                for dk in range(2):
+                    wk = fk if dk == 1 else 1.0 - fk
+                    w = wi * wk
+                    w0 = w * (1.0 - fm)
+                    w1 = w * fm
+                    for q in range(4):
+                        lq = l0 if q == 0 else (l1 if q == 1 else (l2 if q == 2 else l3))
+                        v0 = w0 * lq
+                        v1 = w1 * lq
+                        p = (bb + di * d_h + dk * n_phi + q * d_s) * 6
+                        a0 += lf[p] * v0 + lf[p + 6] * v1
+                        a1 += lf[p + 1] * v0 + lf[p + 7] * v1
+                        a2 += lf[p + 2] * v0 + lf[p + 8] * v1
+                        a3 += lf[p + 3] * v0 + lf[p + 9] * v1
+                        a4 += lf[p + 4] * v0 + lf[p + 10] * v1
+                        a5 += lf[p + 5] * v0 + lf[p + 11] * v1
+            o0 += wt[s, 0] * np.exp(a0)
+            o1 += wt[s, 1] * np.exp(a1)
+            o2 += wt[s, 2] * np.exp(a2)
+            o3 += wt[s, 3] * np.exp(a3)
+            o4 += wt[s, 4] * np.exp(a4)
+            o5 += wt[s, 5] * np.exp(a5)
+        out[n, 0] = o0
+        out[n, 1] = o1
+        out[n, 2] = o2
+        out[n, 3] = o3
+        out[n, 4] = o4
+        out[n, 5] = o5
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
 def _tau_up_one(h_nodes, tau, nx, h, mu, c, acc):  # pragma: no cover - compiled
     """Bilinear ``τ↑`` of :class:`multiple._SunTransmittance` (nodes in ``h`` × ``√μ``)
     at one point, for every wavelength, times ``c``, added to ``acc``."""
@@ -157,29 +227,77 @@ def _tau_up_one(h_nodes, tau, nx, h, mu, c, acc):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
+def _sun_t_one(h_nodes, tau, R, top, h, mus, acc):  # pragma: no cover - compiled
+    """``acc[w] = T`` of the sun ray at altitude ``h`` and sun zenith cosine ``mus`` (one
+    point, every wavelength; see :meth:`multiple._SunTransmittance.__call__`)."""
+    nx = tau.shape[1]
+    nwl = tau.shape[2]
+    hh = min(max(h, 0.0), top - R)
+    m = min(max(mus, -1.0), 1.0)
+    for w in range(nwl):
+        acc[w] = 0.0
+    if m >= 0.0:
+        _tau_up_one(h_nodes, tau, nx, hh, m, 1.0, acc)
+    else:
+        rp = (R + hh) * np.sqrt((1.0 - m) * (1.0 + m))
+        if rp < R:
+            for w in range(nwl):
+                acc[w] = 0.0
+            return
+        _tau_up_one(h_nodes, tau, nx, rp - R, 0.0, 2.0, acc)
+        _tau_up_one(h_nodes, tau, nx, hh, -m, -1.0, acc)
+    for w in range(nwl):
+        acc[w] = np.exp(-max(acc[w], 0.0))
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
 def sun_transmittance(h_nodes, tau, R, top, h, mus, out):  # pragma: no cover - compiled
     """``out[n, w] = T`` of the sun ray at altitudes ``h`` and sun zenith cosines ``mus``
     (flat arrays): the compiled twin of :meth:`multiple._SunTransmittance.__call__`."""
-    nx = tau.shape[1]
-    nwl = tau.shape[2]
-    acc = np.empty(nwl)
+    acc = np.empty(tau.shape[2])
     for n in range(h.shape[0]):
-        hh = min(max(h[n], 0.0), top - R)
-        m = min(max(mus[n], -1.0), 1.0)
+        _sun_t_one(h_nodes, tau, R, top, h[n], mus[n], acc)
+        for w in range(tau.shape[2]):
+            out[n, w] = acc[w]
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def order1_path(sigma, rr, s0, r0, s_z, nu, mu, h, wt, P, keep, h_nodes, tau, R, top,
+                mus_out, cphi_out, path):  # pragma: no cover - compiled
+    """Order 1 of a node-ray batch for one sun direction, in one pass: the local sun
+    zenith cosine ``mus_out`` and cosine of the relative azimuth ``cphi_out`` (N, M) at
+    every node (the formulas of :func:`multiple._march_sun`), and the single-scattering
+    path ``path[n, w] = Σ_m T_sun(h, μ_s) Σ_i wt[n, m, i, w] P[n, i]`` over the nodes
+    with weight (``keep``), ``T_sun`` from the tabulated sun transmittance
+    (:func:`sun_transmittance`).  The compiled twin of the NumPy order 1 of
+    :class:`multiple._FieldState` (which forms the same sums with ``einsum``)."""
+    N, M = sigma.shape
+    nsc = wt.shape[2]
+    nwl = wt.shape[3]
+    t = np.empty(nwl)
+    for n in range(N):
         for w in range(nwl):
-            acc[w] = 0.0
-        if m >= 0.0:
-            _tau_up_one(h_nodes, tau, nx, hh, m, 1.0, acc)
-        else:
-            rp = (R + hh) * np.sqrt((1.0 - m) * (1.0 + m))
-            if rp < R:
-                for w in range(nwl):
-                    out[n, w] = 0.0
+            path[n, w] = 0.0
+        for m in range(M):
+            x = (r0 * s_z + (sigma[n, m] - s0[n]) * nu[n]) / rr[n, m]
+            ms = -1.0 if x < -1.0 else (1.0 if x > 1.0 else x)
+            mus_out[n, m] = ms
+            u = mu[n, m]
+            d2 = (1.0 - u * u) * (1.0 - ms * ms)
+            den = np.sqrt(d2) if d2 > 0.0 else 0.0
+            if den > 1e-12:
+                y = (nu[n] - u * ms) / den
+                cphi_out[n, m] = -1.0 if y < -1.0 else (1.0 if y > 1.0 else y)
+            else:
+                cphi_out[n, m] = 1.0
+            if not keep[n, m]:
                 continue
-            _tau_up_one(h_nodes, tau, nx, rp - R, 0.0, 2.0, acc)
-            _tau_up_one(h_nodes, tau, nx, hh, -m, -1.0, acc)
-        for w in range(nwl):
-            out[n, w] = np.exp(-max(acc[w], 0.0))
+            _sun_t_one(h_nodes, tau, R, top, h[n, m], ms, t)
+            for w in range(nwl):
+                a = 0.0
+                for i in range(nsc):
+                    a += wt[n, m, i, w] * P[n, i]
+                path[n, w] += a * t[w]
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
