@@ -291,7 +291,9 @@ def table_markdown(records, refinfo, scenes, default, reference, machine):
         e = " | ".join(f"{_fmt(row['err'][s][0])} / {_fmt(row['err'][s][1])}" if s in row["err"]
                        else "—" for s in scenes)
         mark = "**" if row["default"] else ""
-        lines.append(f"| {knob} | {mark}{val}{mark} | {b} | {e} |")
+        # the row of an atmosphere measured at the default grid only has no knob value
+        shown = f"{mark}{val}{mark}" if val not in ("", "None") else "(default grid)"
+        lines.append(f"| {knob} | {shown} | {b} | {e} |")
     lines += ["", "Reference build time [s]: " + ", ".join(
         f"{a} {t:.0f}" for a, t in refinfo.items()) + "."]
     return "\n".join(lines) + "\n"
