@@ -395,7 +395,7 @@ def _reference_gather(logt, h_nodes, th_nodes, mu_nodes, h, mus, mu, cphi, wt, f
     return np.einsum("nmc,nmc->nc", wt.reshape(N, M, C), np.exp(acc).reshape(N, M, C))
 
 
-@pytest.mark.parametrize("n_channels", [1, 3, 6, 9])
+@pytest.mark.parametrize("n_channels", [1, 3, 6, 9, 14])
 def test_compiled_gather_matches_the_reference(n_channels):
     """The compiled gather (packed samples, channels in blocks of four plus a remainder)
     against the plain reference above (with the kernel's float32 fractions) and the NumPy
@@ -501,6 +501,32 @@ def test_compiled_order_one_matches_numpy(albedo):
         np.testing.assert_allclose(mc.mus_end, ref.mus_end, rtol=0, atol=1e-15)
 
 
+def test_kept_node_rays_match_rays_marched_again_for_many_wavelengths(monkeypatch):
+    """A field of 13 wavelengths (26 channels: more than the 24 that were kept before)
+    keeps its node rays between orders within the memory budget; with a zero budget it
+    marches them again for every order (float64 weights instead of the kept float32
+    ones).  Both give the same summed source to 1e-6 relative (float32 rounding of the
+    weights, 6e-8, amplified by the 4 orders' sums) where it is above 1e-12 of its
+    maximum."""
+    from atmoscatter.sky import _ms_gather as G
+    from atmoscatter.sky import _quadrature as qd
+    from atmoscatter.sky import multiple as M
+
+    if not G.have_kernel():
+        pytest.skip("numba not installed")
+    grid = MultipleScatteringGrid(n_altitude=5, n_sun=7, n_mu=6, n_phi=5)
+    atm = qd.prepare_atmosphere(ac.earth_turbidity_atmosphere(2.0, tuple(np.linspace(400.0, 700.0, 13))))
+    kept = M._FieldState(atm, grid, 0.2)
+    assert kept.keep and kept.marches
+    monkeypatch.setattr(M, "_KEEP_BYTES", 0)
+    again = M._FieldState(atm, grid, 0.2)
+    assert not again.keep and not again.marches
+    a, b = kept.source_sum(4), again.source_sum(4)
+    big = b > 1e-12 * b.max()
+    assert big.mean() > 0.5
+    np.testing.assert_allclose(a[big], b[big], rtol=1e-6, atol=0)
+
+
 def test_phase_matrix_fold_is_the_sum_over_mirrored_azimuths():
     """The discrete phase operator folds the full circle of quadrature azimuths onto
     0–π: column φ_m collects φ_m and 2π − φ_m.  Reference: the operator assembled with
@@ -546,6 +572,7 @@ def test_field_build_matches_the_reference_field(monkeypatch, albedo):
     fast = M._FieldState(atm, grid, albedo).source_sum(4)
 
     def reference(field, march, logt, nsc, nwl, threads=1):
+        logt = getattr(logt, "array", logt)  # the table of a prepared G.LogTable
         N, M_ = march.h.shape
         out = _reference_gather(logt, field.h_fine, field.ths, field.mu_out, march.h, march.mus,
                                 march.mu, march.cphi,

@@ -71,6 +71,33 @@ def log_table(table: np.ndarray) -> np.ndarray:
     return np.log(np.maximum(table, floor))
 
 
+class LogTable:
+    """A log table (:func:`log_table`, shape (..., C)) prepared for the compiled gather: the
+    flat (rows, C) array and, for more than six channels, contiguous slabs of six channels
+    (and one of the rest).  The gather reads one slab at a time, with the written-out
+    six-channel kernel: a 21-wavelength field's table (0.37 GB on the default grid) does
+    not stay in cache, a slab of it does, and every channel is computed by the same
+    operations as before, so the values do not change.  The slabs replace the table (no
+    second copy is kept); :attr:`array` reassembles it (the NumPy fallback)."""
+
+    def __init__(self, logt: np.ndarray):
+        self.shape = logt.shape
+        C = logt.shape[-1]
+        flat = np.ascontiguousarray(logt, dtype=np.float64).reshape(-1, C)
+        if C <= 6:
+            self.blocks = [(0, C, flat)]
+        else:
+            self.blocks = [(c, min(c + 6, C), np.ascontiguousarray(flat[:, c : c + 6]))
+                           for c in range(0, C, 6)]
+
+    @property
+    def array(self) -> np.ndarray:
+        """The table, shape (..., C)."""
+        if len(self.blocks) == 1:
+            return self.blocks[0][2].reshape(self.shape)
+        return np.concatenate([b for _, _, b in self.blocks], axis=1).reshape(self.shape)
+
+
 def gather_numpy(table, h_nodes, th_nodes, mu_nodes, h, mus, mu, cphi, wt, logt=None):
     """``Σ_m wt[n, m, c] S_c(sample)`` → (N, C); ``table`` is (n_h, n_s, n_mu, n_phi, C).
 
@@ -138,7 +165,10 @@ def gather(table, h_nodes, th_nodes, mu_nodes, h, mus, mu, cphi, wt, *, threads=
     C = table.shape[-1]
     logt = log_table(table) if logt is None else logt
     if not use_kernel or N == 0 or not have_kernel():
-        return gather_numpy(table, h_nodes, th_nodes, mu_nodes, h, mus, mu, cphi, wt, logt)
+        arr = logt.array if isinstance(logt, LogTable) else logt
+        return gather_numpy(arr, h_nodes, th_nodes, mu_nodes, h, mus, mu, cphi, wt, arr)
+    if not isinstance(logt, LogTable):
+        logt = LogTable(logt)  # once, not per chunk
     wt = wt.reshape(N, M, C)
     if threads <= 1 or N < 256:
         return Located(table.shape[:4], h_nodes, th_nodes, mu_nodes, h, mus, mu, cphi, wt).gather(logt)
@@ -204,13 +234,16 @@ class Located:
 
     def gather(self, logt):
         """``Σ_m wt[n, m, c] exp(log S_c(sample))`` → (N, C) for the log table ``logt``
-        (*shape_out, C) of :func:`log_table`."""
+        (*shape_out, C) of :func:`log_table`, or its :class:`LogTable` (prepared once for
+        many gathers)."""
         n_h, n_s, n_mu, n_phi = self.shape_out
-        C = logt.shape[-1]
-        flat = np.ascontiguousarray(logt, dtype=np.float64).reshape(-1, C)
-        out = np.empty((self.start.size - 1, C))
-        # six channels (two scatterers × RGB): the kernel written out for them
-        name = "gather_log6" if C == 6 and self.wt.shape[1] == 6 else "gather_log"
-        _kernels()[name](flat, n_s, n_mu, n_phi, self.th_nodes, self.start, self.base,
-                                 self.frac, self.wt, out)
+        tab = logt if isinstance(logt, LogTable) else LogTable(logt)
+        out = np.empty((self.start.size - 1, tab.shape[-1]))
+        k = _kernels()
+        for c0, c1, flat in tab.blocks:
+            # six channels (two scatterers × RGB, or a slab of a spectral table): the
+            # kernel written out for them
+            kern = k["gather_log6"] if c1 - c0 == 6 else k["gather_log"]
+            kern(flat, n_s, n_mu, n_phi, self.th_nodes, self.start, self.base, self.frac,
+                 self.wt[:, c0:c1], out[:, c0:c1])
         return out

@@ -57,21 +57,26 @@ def _lagrange4(x0, x1, x2, x3, x):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
+def _theta_stencil(n_s, d_s, th_nodes, b, fj):  # pragma: no cover - compiled
+    """The solar-zenith part of a sample's stencil: the flat row of its first θ_s node (the
+    cubic's four nodes around the sample's interval ``j``, shifted inward at the grid's
+    ends; ``b`` the row of the interval's lower corner, ``d_s`` the row stride of θ_s) and
+    the four Lagrange weights at the sample's θ_s."""
+    j = (b // d_s) % n_s
+    j0 = min(max(j - 1, 0), n_s - 4)
+    x = th_nodes[j] + fj * (th_nodes[j + 1] - th_nodes[j])
+    l0, l1, l2, l3 = _lagrange4(th_nodes[j0], th_nodes[j0 + 1], th_nodes[j0 + 2],
+                                th_nodes[j0 + 3], x)
+    return b + (j0 - j) * d_s, l0, l1, l2, l3
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
 def _corner_weights(n_s, d_h, d_s, n_phi, th_nodes, b, fi, fj, fk, fm, rows, u0, u1):  # pragma: no cover
     """The 16 (altitude, θ_s, μ) rows of one sample's interpolation stencil and their
     weights for the lower (``u0``) and upper (``u1``) azimuth node: multilinear in
     altitude, μ and φ, cubic (4-point Lagrange, shifted inward at the grid's ends) in
     θ_s.  ``b`` is the flat row of the stencil's (0, 0, 0, 0) corner."""
-    j = (b // d_s) % n_s
-    j0 = j - 1
-    if j0 < 0:
-        j0 = 0
-    if j0 > n_s - 4:
-        j0 = n_s - 4
-    x = th_nodes[j] + fj * (th_nodes[j + 1] - th_nodes[j])
-    l0, l1, l2, l3 = _lagrange4(th_nodes[j0], th_nodes[j0 + 1], th_nodes[j0 + 2],
-                                th_nodes[j0 + 3], x)
-    bb = b + (j0 - j) * d_s
+    bb, l0, l1, l2, l3 = _theta_stencil(n_s, d_s, th_nodes, b, fj)
     r = 0
     for di in range(2):
         wi = fi if di == 1 else 1.0 - fi
@@ -167,12 +172,7 @@ def _gather_log6(logflat, n_s, n_mu, n_phi, th_nodes, start, base, frac, wt, out
             fj = np.float64(frac[s, 1])
             fk = np.float64(frac[s, 2])
             fm = np.float64(frac[s, 3])
-            j = (b // d_s) % n_s
-            j0 = min(max(j - 1, 0), n_s - 4)
-            x = th_nodes[j] + fj * (th_nodes[j + 1] - th_nodes[j])
-            l0, l1, l2, l3 = _lagrange4(th_nodes[j0], th_nodes[j0 + 1], th_nodes[j0 + 2],
-                                        th_nodes[j0 + 3], x)
-            bb = b + (j0 - j) * d_s
+            bb, l0, l1, l2, l3 = _theta_stencil(n_s, d_s, th_nodes, b, fj)
             a0 = 0.0
             a1 = 0.0
             a2 = 0.0

@@ -93,6 +93,7 @@ from .. import _progress
 from .._validate import check_range
 from . import _quadrature as qd
 from ._ms_gather import Located as _Located
+from ._ms_gather import LogTable as _LogTable
 from ._ms_gather import gather as _gather_kernel
 from ._ms_gather import have_kernel as _have_kernel
 from ._ms_gather import kernel as _ms_kernel
@@ -225,6 +226,11 @@ _CACHE: dict = {}
 _CACHE_LOCK = threading.Lock()
 _CACHE_MAX = 4
 _THREADS = max(1, min(4, os.cpu_count() or 1))
+#: memory budget [bytes] for the node rays kept between orders (:class:`_FieldState`).  The
+#: default grid keeps about 0.25 GB at 3 wavelengths and 0.3 GB at 21 (spectral sampling);
+#: before, fields of more than 12 wavelengths re-marched every node ray for every order
+#: (a 21-wavelength field: 7 min on the 2-core machine)
+_KEEP_BYTES = 2 * 2**30
 #: with orders=None, summation stops once the estimated tail is below this multiple of
 #: order_tolerance, and the tail is added (see _FieldState.converged_sum)
 _ACCELERATION = 30.0
@@ -710,9 +716,8 @@ class _FieldState:
         nwl = atm.n_wavelengths
         n_r, n_s, n_mu, n_phi = field.shape
         self.marches = {}
-        # the marched rays are kept between orders unless that would take much memory
-        # (many wavelengths): then they are recomputed for every order
-        self.keep = nwl * max(len(atm.scatterers), 1) <= 24
+        # the marched rays are kept between orders (decided below, from their size)
+        self.keep = _have_kernel()
         L = np.zeros(field.shape + (nwl,))
         cells = [(i, j) for i in range(n_r) for j in range(n_s)]
 
@@ -729,12 +734,22 @@ class _FieldState:
             # samples with weight (the rest of the (N, M) batch pads the shorter rays)
             keep = np.any(vm.wt != 0, axis=(-2, -1))
             packed = None
-            if self.keep and _have_kernel():
+            if self.keep:
                 N, M = vm.h.shape
                 packed = _pack_weights(np.asarray(vm.wt, dtype=np.float32), N, M)
             views[i] = (dirs, vm, keep, packed)
 
         _run_cells(view, list(range(n_r)), "multiple scattering: view rays")
+        if self.keep:
+            # kept: per cell the located samples (int32 row + 4 float32 fractions), per
+            # altitude the packed float32 weights (shared by the cells of the altitude).
+            # Beyond the budget the rays are marched again for every order instead.
+            k_alt = [views[i][3][0].size for i in range(n_r)]
+            size = 20 * n_s * sum(k_alt) + 4 * sum(k_alt) * views[0][3][2].shape[1]
+            self.keep = size <= _KEEP_BYTES
+            if not self.keep:
+                for i in range(n_r):
+                    views[i] = views[i][:3] + (None,)
 
         def first(cell):
             i, j = cell
@@ -777,7 +792,8 @@ class _FieldState:
         Lnew = np.zeros_like(self.L)
         n_mu, n_phi = f.shape[2:]
         nsc, nwl = S.shape[-2:]
-        logS = _log_source(f, S.reshape(f.shape_out + (-1,)))  # once per order
+        # once per order (the NumPy table is dropped as soon as its slabs exist)
+        logS = _LogTable(_log_source(f, S.reshape(f.shape_out + (-1,))))
 
         def cell(ij):
             i, j = ij
@@ -1000,7 +1016,7 @@ def _field_for(atm_obj, atm, grid, albedo, orders, tol=None):
                 res = compute()  # a stale entry of another layout: never trust it
             res = dict(res)
             # the gather reads log S: take the logarithms once per field, not per call
-            res["logS"] = _log_source(field, res["S_sum"].reshape(field.shape_out + (-1,)))
+            res["logS"] = _LogTable(_log_source(field, res["S_sum"].reshape(field.shape_out + (-1,))))
             with _CACHE_LOCK:
                 if len(_RESULTS) >= _RESULTS_MAX:
                     _RESULTS.pop(next(iter(_RESULTS)))
@@ -1009,7 +1025,7 @@ def _field_for(atm_obj, atm, grid, albedo, orders, tol=None):
         _warn_tail(int(res["orders"]), float(res["tail"]), tol)
     logS = res.get("logS")
     if logS is None:
-        logS = _log_source(field, res["S_sum"].reshape(field.shape_out + (-1,)))
+        logS = _LogTable(_log_source(field, res["S_sum"].reshape(field.shape_out + (-1,))))
     return field, res["S_sum"], logS
 
 
