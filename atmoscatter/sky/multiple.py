@@ -383,8 +383,9 @@ def _order1(vm: _ViewMarch, s: np.ndarray, P: np.ndarray, keep: np.ndarray,
     """The march of node rays ``vm`` completed for the sun ``s`` (:func:`_march_sun`) and
     their order-1 path ``Σ_m T_sun Σ_i w T β_i ρ_i p_i`` (N, nwl) with the phase values
     ``P`` (N, n_sc) and the tabulated sun transmittance ``sun_t`` over the samples with
-    weight (``keep``).  One compiled pass where available (the grid's order 1 is ~10 % of
-    a field build in NumPy temporaries otherwise); ``use_kernel=False``: NumPy."""
+    weight (``keep``).  One compiled pass where available (in NumPy temporaries, which
+    hold the GIL, order 1 took a fifth of the default field's build on the 2-core
+    machine); ``use_kernel=False``: NumPy."""
     kern = _ms_kernel("order1_path") if use_kernel else None
     if kern is None:
         mc = _march_sun(vm, s)
