@@ -397,7 +397,8 @@ def _reference_gather(logt, h_nodes, th_nodes, mu_nodes, h, mus, mu, cphi, wt, f
 
 @pytest.mark.parametrize("n_channels", [1, 3, 6, 9, 14])
 def test_compiled_gather_matches_the_reference(n_channels):
-    """The compiled gather (packed samples, channels in blocks of four plus a remainder)
+    """The compiled gather (packed samples; tables of more than six channels read in
+    six-channel slabs by the written-out kernel, the rest in blocks of four plus a remainder)
     against the plain reference above (with the kernel's float32 fractions) and the NumPy
     gather against it with float64 fractions: the same sums in another order, so
     agreement to round-off (1e-12 relative; values O(1), log-table entries O(10)).  Samples with zero weight in every channel — the padding of short

@@ -240,9 +240,7 @@ def _sun_t_one(h_nodes, tau, R, top, h, mus, acc):  # pragma: no cover - compile
         _tau_up_one(h_nodes, tau, nx, hh, m, 1.0, acc)
     else:
         rp = (R + hh) * np.sqrt((1.0 - m) * (1.0 + m))
-        if rp < R:
-            for w in range(nwl):
-                acc[w] = 0.0
+        if rp < R:  # in the planet's shadow: T = 0 (acc is still zero)
             return
         _tau_up_one(h_nodes, tau, nx, rp - R, 0.0, 2.0, acc)
         _tau_up_one(h_nodes, tau, nx, hh, -m, -1.0, acc)

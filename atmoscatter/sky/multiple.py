@@ -361,10 +361,19 @@ def _march_view(atm: qd.PreparedAtmosphere, r0: float, v: np.ndarray, q: int,
     return _ViewMarch(atm, r0, v, sigma, rr, s0, p2, sb, wt, h, mu, ground, np.exp(-tau_end))
 
 
+def _sun_at_ends(vm: _ViewMarch, s: np.ndarray):
+    """``(ν, μ_s,end)``: the cosine of the angle between each view ray and the sun ``s``,
+    and the sun's zenith cosine where each ray ends."""
+    nu = np.clip(vm.v @ s, -1.0, 1.0)
+    r_end = np.sqrt(vm.p2 + vm.sb * vm.sb)
+    mus_end = np.clip((vm.r0 * s[2] + (vm.sb - vm.s0) * nu) / np.maximum(r_end, 1.0), -1.0, 1.0)
+    return nu, mus_end
+
+
 def _march_sun(vm: _ViewMarch, s: np.ndarray) -> _March:
     """Complete a view march with the sun direction ``s``: local sun zenith cosine and
     relative azimuth at every node, and the sun's zenith cosine where the ray ends."""
-    nu = np.clip(vm.v @ s, -1.0, 1.0)
+    nu, mus_end = _sun_at_ends(vm, s)
     t = vm.sigma - vm.s0[:, None]
     mu = vm.mu
     mus = np.clip((vm.r0 * s[2] + t * nu[:, None]) / vm.rr, -1.0, 1.0)
@@ -372,9 +381,6 @@ def _march_sun(vm: _ViewMarch, s: np.ndarray) -> _March:
     with np.errstate(divide="ignore", invalid="ignore"):
         cphi = np.where(den > 1e-12, (nu[:, None] - mu * mus) / np.where(den > 1e-12, den, 1.0), 1.0)
     cphi = np.clip(cphi, -1.0, 1.0)
-    r_end = np.sqrt(vm.p2 + vm.sb * vm.sb)
-    t_e = vm.sb - vm.s0
-    mus_end = np.clip((vm.r0 * s[2] + t_e * nu) / np.maximum(r_end, 1.0), -1.0, 1.0)
     return _March(vm.wt, vm.h, mu, mus, cphi, vm.ground, vm.t_end, mus_end)
 
 
@@ -398,14 +404,12 @@ def _order1(vm: _ViewMarch, s: np.ndarray, P: np.ndarray, keep: np.ndarray,
         tsun[keep] = sun_t(mc.h[keep], mc.mus[keep])
         return mc, np.einsum("nmw,nmw->nw", wp, tsun)
     N, M = vm.h.shape
-    nu = np.clip(vm.v @ s, -1.0, 1.0)
+    nu, mus_end = _sun_at_ends(vm, s)
     mus, cphi = np.empty((N, M)), np.empty((N, M))
     path = np.empty((N, vm.wt.shape[-1]))
     kern(vm.sigma, vm.rr, vm.s0, float(vm.r0), float(s[2]), nu, vm.mu, vm.h, vm.wt,
          np.ascontiguousarray(P, dtype=float), keep, sun_t.h_nodes, sun_t.tau, float(sun_t.R),
          float(sun_t.top), mus, cphi, path)
-    r_end = np.sqrt(vm.p2 + vm.sb * vm.sb)
-    mus_end = np.clip((vm.r0 * s[2] + (vm.sb - vm.s0) * nu) / np.maximum(r_end, 1.0), -1.0, 1.0)
     return _March(vm.wt, vm.h, vm.mu, mus, cphi, vm.ground, vm.t_end, mus_end), path
 
 
@@ -693,6 +697,13 @@ def _log_source(field: _Field, S_flat: np.ndarray) -> np.ndarray:
     return _refine_log(field, _log_table(np.ascontiguousarray(S_flat)))
 
 
+def _gather_table(field: _Field, S: np.ndarray):
+    """The table the gather reads for a source ``S`` (``field.shape_out + (n_sc, nwl)``):
+    :func:`_log_source` prepared as a :class:`._ms_gather.LogTable` (for more than six
+    channels the NumPy table is dropped as soon as its slabs exist)."""
+    return _LogTable(_log_source(field, S.reshape(field.shape_out + (-1,))))
+
+
 def _gather(field: _Field, march: _March, logt: np.ndarray, nsc: int, nwl: int,
             threads: int = 1) -> np.ndarray:
     """Σ_samples w T Σ_i β_i ρ_i S_i → (N, nwl), with ``logt`` = :func:`_log_source` of
@@ -746,7 +757,7 @@ class _FieldState:
             # altitude the packed float32 weights (shared by the cells of the altitude).
             # Beyond the budget the rays are marched again for every order instead.
             k_alt = [views[i][3][0].size for i in range(n_r)]
-            size = 20 * n_s * sum(k_alt) + 4 * sum(k_alt) * views[0][3][2].shape[1]
+            size = 20 * n_s * sum(k_alt) + 4 * sum(k_alt) * nwl * len(atm.scatterers)
             self.keep = size <= _KEEP_BYTES
             if not self.keep:
                 for i in range(n_r):
@@ -793,8 +804,7 @@ class _FieldState:
         Lnew = np.zeros_like(self.L)
         n_mu, n_phi = f.shape[2:]
         nsc, nwl = S.shape[-2:]
-        # once per order (the NumPy table is dropped as soon as its slabs exist)
-        logS = _LogTable(_log_source(f, S.reshape(f.shape_out + (-1,))))
+        logS = _gather_table(f, S)  # once per order
 
         def cell(ij):
             i, j = ij
@@ -1017,7 +1027,7 @@ def _field_for(atm_obj, atm, grid, albedo, orders, tol=None):
                 res = compute()  # a stale entry of another layout: never trust it
             res = dict(res)
             # the gather reads log S: take the logarithms once per field, not per call
-            res["logS"] = _LogTable(_log_source(field, res["S_sum"].reshape(field.shape_out + (-1,))))
+            res["logS"] = _gather_table(field, res["S_sum"])
             with _CACHE_LOCK:
                 if len(_RESULTS) >= _RESULTS_MAX:
                     _RESULTS.pop(next(iter(_RESULTS)))
@@ -1026,7 +1036,7 @@ def _field_for(atm_obj, atm, grid, albedo, orders, tol=None):
         _warn_tail(int(res["orders"]), float(res["tail"]), tol)
     logS = res.get("logS")
     if logS is None:
-        logS = _LogTable(_log_source(field, res["S_sum"].reshape(field.shape_out + (-1,))))
+        logS = _gather_table(field, res["S_sum"])
     return field, res["S_sum"], logS
 
 
