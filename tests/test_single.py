@@ -770,3 +770,34 @@ def test_render_uses_the_twilight_table_for_the_whole_sky(monkeypatch):
     bright = b >= single_mod.TABLE_FLOOR * b.max(axis=(0, 1))
     assert bright.any()
     assert np.max(np.abs(a - b)[bright] / b[bright]) < 1e-3
+
+
+def test_render_of_a_few_given_directions_builds_no_sky_table(monkeypatch):
+    """``render(directions=...)`` with a few hundred directions at twilight: the table
+    decision follows the directions given, not the scene's default 1024 × 512 projection
+    (a 128-direction render at 81 wavelengths used to build the whole-sky table, ~40 s,
+    for < 1 s of direct integration).  Reference: the same directions through
+    ``method="graded"`` (the direct rule), within float32 output rounding."""
+    import atmoscatter.sky.single as single_mod
+
+    el, az = np.meshgrid(np.radians(np.linspace(1.0, 89.0, 6)),
+                         np.radians(np.linspace(0.0, 360.0, 8, endpoint=False)))
+    d = np.stack([np.cos(el) * np.sin(az), np.cos(el) * np.cos(az), np.sin(el)], -1)
+    d = d.reshape(-1, 3)
+    common = dict(model="single_scattering", sun_elevation_deg=-6.0, output="xyz",
+                  sampling="rgb")
+    assert ac.Scene(**common).width * ac.Scene(**common).height // 4 >= \
+        single_mod.TWILIGHT_TABLE_THRESHOLD  # the projection alone would take the table
+    _single_table._TABLE_CACHE.clear()
+    img = ac.render(ac.Scene(**common), directions=d)
+    assert not _single_table._TABLE_CACHE, "a whole-sky table was built for 48 directions"
+    ref = ac.render(ac.Scene(**common, method="graded"), directions=d)
+    np.testing.assert_allclose(img.xyz, ref.xyz, rtol=1e-6, atol=0)
+    # a large caller-given set still takes the table where it pays off (threshold lowered
+    # and the sun above the horizon, where the table builds in a second, to keep it short)
+    monkeypatch.setattr(single_mod, "TABLE_THRESHOLD", 512)
+    many = np.repeat(d, 512 // len(d) + 1, axis=0)
+    ac.render(ac.Scene(**{**common, "sun_elevation_deg": 10.0}, width=16, height=8),
+              directions=many)
+    assert _single_table._TABLE_CACHE, "no table for a large caller-given set"
+    _single_table._TABLE_CACHE.clear()

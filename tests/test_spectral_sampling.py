@@ -107,7 +107,6 @@ def _delta_e(xyz, ref):
                                      method="CIE 2000"))
 
 
-@pytest.mark.extended
 def test_twilight_three_wavelengths_are_not_enough():
     """Independent check of the rule's premise with real single scattering (seconds).
 

@@ -75,13 +75,29 @@ class GamutWarning(UserWarning):
 # ----------------------------------------------------------------------------
 # the evaluator
 # ----------------------------------------------------------------------------
+def _prepare(adapter, scene: Scene, plan: Plan, dset: DirectionSet):
+    """``adapter.prepare(scene, plan)``; for caller-given directions, an adapter whose
+    ``prepare`` takes ``n_directions`` is told their number (its choice of a whole-sky
+    table then follows the directions actually evaluated, not the scene's projection)."""
+    if isinstance(dset, ArrayDirections):
+        import inspect  # noqa: PLC0415
+
+        try:
+            takes_n = "n_directions" in inspect.signature(adapter.prepare).parameters
+        except (TypeError, ValueError):  # a builtin or C callable: the plain protocol
+            takes_n = False
+        if takes_n:
+            return adapter.prepare(scene, plan, n_directions=dset.size)
+    return adapter.prepare(scene, plan)
+
+
 class _Context:
     """Everything a batch needs, prepared once per render."""
 
     def __init__(self, scene: Scene, plan: Plan, dset: DirectionSet):
         self.scene, self.plan, self.dset = scene, plan, dset
         self.adapter = get_model(scene.model)
-        self.evaluate = self.adapter.prepare(scene, plan)
+        self.evaluate = _prepare(self.adapter, scene, plan, dset)
         self.sun = plan.sun_direction
         self.key = "Y" if plan.quantity == "Y" else "XYZ"
         self.nval = 1 if self.key == "Y" else 3

@@ -92,7 +92,10 @@ class ModelAdapter:
         directions (n, 3) [local frame] and returns a dict with ``"XYZ"`` (n, 3)
         or ``"Y"`` (n,) [cd m⁻²] (per ``plan.quantity``) and, for
         ``quantity = "spectral"``, ``"spectral"`` (n, n_wl) [W m⁻² sr⁻¹ nm⁻¹].
-        Setup that does not depend on the directions happens once in ``prepare``.
+        Setup that does not depend on the directions happens once in ``prepare``.  A
+        ``prepare`` with a keyword ``n_directions`` is passed the number of directions
+        when the caller gives its own (``render(directions=...)``), so it can size
+        direction-independent work (a whole-sky table) to them.
     spectral : bool
         The model computes spectra (can output spectral layers).
     separate_haze : bool

@@ -81,8 +81,10 @@ def _evaluated_directions(scene, symmetry: bool = True) -> int:
     return n // 2 if symmetry else n
 
 
-def _render_uses_table(scene, atm, sun, symmetry: bool = True) -> bool:
-    """Whether ``single_scattering``'s default would use its table for the whole render."""
+def _render_uses_table(scene, atm, sun, symmetry: bool = True,
+                       n_directions: int | None = None) -> bool:
+    """Whether ``single_scattering``'s default would use its table for the whole render
+    (``n_directions``: the caller's own direction count, else the scene's estimate)."""
     from ..sky import _quadrature as qd  # noqa: PLC0415
     from ..sky import single  # noqa: PLC0415
 
@@ -90,12 +92,14 @@ def _render_uses_table(scene, atm, sun, symmetry: bool = True) -> bool:
         prepared = qd.prepare_atmosphere(atm)
     except (TypeError, ValueError, AttributeError):  # a duck-typed atmosphere: leave it be
         return False
-    return single._table_allowed(prepared, float(scene.altitude), np.asarray(sun, float),
-                                 _evaluated_directions(scene, symmetry))
+    n = _evaluated_directions(scene, symmetry) if n_directions is None else int(n_directions)
+    return single._table_allowed(prepared, float(scene.altitude), np.asarray(sun, float), n)
 
 
 def _make_physical_prepare(function_name):
-    def prepare(scene, plan):
+    def prepare(scene, plan, n_directions=None):
+        # n_directions: the render evaluates these many caller-given directions (not the
+        # scene's projection): a few hundred must not pay for a whole-sky table
         fn = _lookup(function_name)
         if fn is None:
             raise ValueError(f"model {function_name!r} is not available in this installation")
@@ -114,12 +118,13 @@ def _make_physical_prepare(function_name):
             if scene.orders is not None:
                 kwargs["orders"] = scene.orders
             kwargs["grid"] = _ms_grid(scene)[1]
-            if _render_uses_table(scene, atm, sun, bool(getattr(plan, "symmetry", True))):
+            if _render_uses_table(scene, atm, sun, bool(getattr(plan, "symmetry", True)),
+                                  n_directions):
                 kwargs["single_method"] = "table"  # order 1: as for single_scattering below
         elif scene.method is not None:
             kwargs["method"] = scene.method
         elif function_name == "single_scattering" and _render_uses_table(
-                scene, atm, sun, bool(getattr(plan, "symmetry", True))):
+                scene, atm, sun, bool(getattr(plan, "symmetry", True)), n_directions):
             # the renderer calls the model once per batch: the default's choice of the
             # table must follow the whole sky's direction count, not the batch's (at
             # twilight the table pays off from TWILIGHT_TABLE_THRESHOLD directions, and a
