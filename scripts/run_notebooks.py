@@ -24,7 +24,10 @@ on every run on the same versions of the package and its dependencies.
 
 A notebook whose metadata has ``"atmoscatter": {"extended": true}`` takes long (more than
 ~10 s): ``tests/test_notebooks.py`` executes it only in the ``extended`` test step, and
-``--quick`` leaves it out unless ``--all`` is given.  ``--quick`` never writes into
+``--quick`` leaves it out unless ``--all`` is given.  ``"atmoscatter": {"slow": true}``
+(minutes: ``error_vs_runtime`` times whole multiple-scattering fields) executes only with
+``-m slow`` and in this script's full mode; CI checks its stored outputs (cheap) and runs
+the studies behind it in their quick modes.  ``--quick`` never writes into
 ``notebooks/``; it stores the executed copies in ``--out`` (a temp dir by default).
 """
 
@@ -67,10 +70,18 @@ def notebook_paths(names=None) -> list[Path]:
     return paths
 
 
-def is_extended(path) -> bool:
-    """Whether the notebook is marked long-running (``metadata.atmoscatter.extended``)."""
+def tier(path) -> str:
+    """``"quick"``, ``"extended"`` or ``"slow"`` (``metadata.atmoscatter``; see above)."""
     meta = json.loads(Path(path).read_text(encoding="utf-8")).get("metadata", {})
-    return bool(meta.get("atmoscatter", {}).get("extended", False))
+    flags = meta.get("atmoscatter", {})
+    if flags.get("slow", False):
+        return "slow"
+    return "extended" if flags.get("extended", False) else "quick"
+
+
+def is_extended(path) -> bool:
+    """Whether the notebook is marked long-running (extended or slow)."""
+    return tier(path) != "quick"
 
 
 def kernel_env(scratch: Path) -> dict:
@@ -163,7 +174,7 @@ def main(argv=None) -> int:
     paths = notebook_paths(args.names)
     if args.list:
         for p in paths:
-            print(f"{p.stem:20s} {'extended' if is_extended(p) else 'quick'}")
+            print(f"{p.stem:20s} {tier(p)}")
         return 0
     if args.quick and not args.all and not args.names:
         paths = [p for p in paths if not is_extended(p)]

@@ -37,12 +37,18 @@ def test_direct_normal_illuminance_matches_ies_clear_sky(elevation):
     assert lux == pytest.approx(_ies_clear_sky_lux(elevation)[0], rel=0.20)
 
 
-@pytest.mark.extended
-@pytest.mark.parametrize("elevation", [25.0, 60.0])
-def test_multiple_scattering_diffuse_illuminance_matches_ies_clear_sky(elevation):
+@pytest.mark.parametrize("elevation, sampling", [
+    # auto: 3 wavelengths above the spectral_sampling rule's threshold (one field, ~20 s)
+    pytest.param(60.0, "auto", marks=pytest.mark.extended),
+    # 3 wavelengths: the same field (all sun positions): the variant CI runs
+    pytest.param(25.0, "rgb", marks=pytest.mark.extended),
+    # auto: a 21-wavelength field below the threshold (~2-3 min on 2 cores): the long run
+    pytest.param(25.0, "auto", marks=pytest.mark.slow),
+])
+def test_multiple_scattering_diffuse_illuminance_matches_ies_clear_sky(elevation, sampling):
     scene = ac.Scene(model="multiple_scattering", turbidity=2.0, sun_elevation_deg=elevation,
                      sun_azimuth_deg=180.0, projection="latlong", width=64, height=32,
-                     output="xyz", sun_disc=False)
+                     output="xyz", sun_disc=False, sampling=sampling)
     lux = float(ac.diffuse_irradiance(ac.render(scene)))
     assert lux == pytest.approx(_ies_clear_sky_lux(elevation)[1], rel=0.20)
 

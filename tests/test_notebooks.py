@@ -12,7 +12,7 @@ Two kinds of checks:
   now must have stored outputs of the same kinds (stream / MIME types), so a cell added
   or changed without re-running the script is caught.  Notebooks marked
   ``"atmoscatter": {"extended": true}`` in their metadata (more than ~10 s) run only with
-  ``-m extended``.
+  ``-m extended``, those marked ``"slow": true`` (minutes) only with ``-m slow``.
 
 A notebook whose package features have not landed in this checkout is skipped with the
 missing names (never silently passed).
@@ -61,8 +61,9 @@ def _params():
     out = []
     for name in sorted(REQUIRES):
         path = NOTEBOOKS / f"{name}.ipynb"
-        ext = path.is_file() and run_notebooks.is_extended(path)
-        out.append(pytest.param(name, marks=[pytest.mark.extended] if ext else []))
+        t = run_notebooks.tier(path) if path.is_file() else "quick"
+        marks = {"quick": [], "extended": [pytest.mark.extended], "slow": [pytest.mark.slow]}
+        out.append(pytest.param(name, marks=marks[t]))
     return out
 
 
