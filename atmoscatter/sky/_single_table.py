@@ -17,6 +17,7 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
+from ._disk_memo import memo_values, table_key, table_meta
 from ._single_rules import _evaluate_J, _graded, _graded_cost
 from ._sky_table import _TWO_OVER_PI
 
@@ -107,7 +108,8 @@ class _LogSkyTable:
     a marked cell are integrated directly (:meth:`J`).
     """
 
-    def __init__(self, atm, r0, s, n_u, n_phi, q, tol=None, floor=None, stretch=None):
+    def __init__(self, atm, r0, s, n_u, n_phi, q, tol=None, floor=None, stretch=None,
+                 disk_key=None, disk_meta=None):
         R = atm.planet_radius
         self.stretch = _TABLE_STRETCH if stretch is None else float(stretch)
         self.atm, self.r0, self.s, self.q = atm, r0, s, q
@@ -132,7 +134,11 @@ class _LogSkyTable:
                 pts.append(self._directions(name, uu2.ravel(), pp2.ravel()))
                 layout.append(uu2.shape)
         v = np.concatenate(pts, axis=0)
-        J = self._direct(v)  # (G, N, nwl)
+        # disk_key: the node values may come from the persistent cache (bit for bit the
+        # computed ones; see _disk_memo), keyed by it, the stretch and the nodes
+        J = memo_values("single_scattering_table",
+                        None if disk_key is None else (disk_key, self.stretch),
+                        self._direct, meta=disk_meta)(v)  # (G, N, nwl)
         G, nwl = J.shape[0], J.shape[2]
         K = G * nwl
         J = np.moveaxis(J, 0, 1).reshape(-1, K)  # (N, K), channels last
@@ -266,16 +272,23 @@ _TABLE_LOCK = threading.Lock()
 
 def _cached_table(atmosphere, atm, r0, s, n_mu, n_phi, q):
     """Tables are reused across calls with the same atmosphere, observer and sun (a renderer
-    evaluating one sky in many batches, possibly from several threads, builds it once)."""
+    evaluating one sky in many batches, possibly from several threads, builds it once),
+    and their node values across processes through the persistent cache."""
+    def build():  # the node values may come from the persistent cache (_disk_memo)
+        disk_key = table_key("single_scattering_table", atmosphere, float(r0),
+                             [float(x) for x in s], int(n_mu), int(n_phi), int(q))
+        return _LogSkyTable(atm, r0, s, n_mu, n_phi, q, disk_key=disk_key,
+                            disk_meta=table_meta(atmosphere, r0, s, nodes=[int(n_mu), int(n_phi)]))
+
     try:
         key = (atmosphere, float(r0), tuple(float(x) for x in s), n_mu, n_phi, q)
         hash(key)
     except TypeError:
-        return _LogSkyTable(atm, r0, s, n_mu, n_phi, q)
+        return build()
     with _TABLE_LOCK:
         table = _TABLE_CACHE.get(key)
         if table is None:
-            table = _LogSkyTable(atm, r0, s, n_mu, n_phi, q)
+            table = build()
             _TABLE_CACHE[key] = table
             while len(_TABLE_CACHE) > _TABLE_CACHE_MAX:
                 _TABLE_CACHE.popitem(last=False)

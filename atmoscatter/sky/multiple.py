@@ -85,6 +85,7 @@ from __future__ import annotations
 import os
 import threading
 import warnings
+import weakref
 from dataclasses import dataclass
 
 import numpy as np
@@ -92,6 +93,7 @@ import numpy as np
 from .. import _progress
 from .._validate import check_range
 from . import _quadrature as qd
+from ._disk_memo import memo_values, table_key, table_meta
 from ._ms_gather import Located as _Located
 from ._ms_gather import LogTable as _LogTable
 from ._ms_gather import gather as _gather_kernel
@@ -985,6 +987,45 @@ def _disk_key(atm_obj, grid, albedo, orders, tol):
         return None
 
 
+#: in-process sky tables of the multiple-scattering part, per field (its log S table; an
+#: entry goes when the field leaves _RESULTS): a renderer calls once per batch and every
+#: batch of one sky shares the table
+_MS_TABLES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+_MS_TABLES_LOCK = threading.Lock()
+
+
+def _ms_sky_table(atm_obj, atm, grid, albedo, orders, tol, field, logS, r0, s, n_mu, n_phi,
+                  direct):
+    """The :class:`_SkyTable` of the multiple-scattering part for this field, observer and
+    sun: built once per process (per field), its node values read from the persistent
+    cache when a process rendered this sky before (bit for bit the computed ones; see
+    :mod:`._disk_memo`)."""
+    key = (float(r0), tuple(float(x) for x in s), int(n_mu), int(n_phi), int(field.grid.order))
+
+    def build():
+        fkey = _disk_key(atm_obj, grid, albedo, orders, tol)
+        tkey = None if fkey is None else table_key(
+            "multiple_scattering_table", fkey, key[0], list(key[1]), *key[2:])
+        return _SkyTable(atm, r0, s, n_mu, n_phi, field.grid.order,
+                         values=memo_values("multiple_scattering_table", tkey,
+                                            lambda vv: direct(vv)[None],
+                                            meta=table_meta(atm_obj, r0, s, albedo=albedo,
+                                                            nodes=[int(n_mu), int(n_phi)])),
+                         n_values=1, linear=True)
+
+    with _MS_TABLES_LOCK:
+        try:
+            per_field = _MS_TABLES.setdefault(logS, {})
+        except TypeError:  # not weak-referenceable: no in-process reuse
+            return build()
+        table = per_field.get(key)
+        if table is None:
+            if len(per_field) >= 4:
+                per_field.pop(next(iter(per_field)))
+            table = per_field[key] = build()
+    return table
+
+
 def _field_for(atm_obj, atm, grid, albedo, orders, tol=None):
     """Field and Σ S^k for ``orders`` orders (or, with ``orders=None``, until ``tol``).
 
@@ -1153,10 +1194,8 @@ def multiple_scattering(
         # the sun), symmetric about the solar vertical: tabulate it like single scattering
         deep = s[2] < np.sin(np.radians(_DEEP_TWILIGHT_ELEVATION))
         n_mu_t, n_phi_t = _MS_TABLE_NODES_DEEP_TWILIGHT if deep else _MS_TABLE_NODES
-        table = _SkyTable(
-            atm, r0, s, n_mu_t, n_phi_t, field.grid.order,
-            values=lambda vv: direct(vv)[None], n_values=1, linear=True,
-        )
+        table = _ms_sky_table(atmosphere, atm, grid, albedo, n_orders, tol, field, logS,
+                              r0, s, n_mu_t, n_phi_t, direct)
         extra = np.concatenate(
             [table.J(vf[i : i + 65536])[0] for i in range(0, vf.shape[0], 65536)], axis=0
         )
