@@ -23,11 +23,20 @@ from atmoscatter.render import ModelAdapter, register_model, unregister_model
 # user's ~/.cache/atmoscatter, so no test can pass or fail because of fields left by an
 # earlier run or another checkout.  Set when conftest is imported, i.e. before any test
 # module (the cache reads the variable at every call).
-# EXCEPT: tests that check the caching itself (tests/test_cache.py) point
-# ATMOSCATTER_CACHE_DIR at their own tmp_path with monkeypatch.
+# EXCEPT: tests that check the caching itself (tests/test_cache.py, test_table_cache.py)
+# point ATMOSCATTER_CACHE_DIR at their own tmp_path (fixture cache_root below).
 _SESSION_CACHE = tempfile.mkdtemp(prefix="atmoscatter-test-cache-")
 os.environ["ATMOSCATTER_CACHE_DIR"] = _SESSION_CACHE
 atexit.register(shutil.rmtree, _SESSION_CACHE, ignore_errors=True)
+
+@pytest.fixture
+def cache_root(tmp_path, monkeypatch):
+    """A cache directory of the test's own (tests of the caching itself), default size cap."""
+    root = tmp_path / "cache"
+    monkeypatch.setenv("ATMOSCATTER_CACHE_DIR", str(root))
+    monkeypatch.delenv("ATMOSCATTER_CACHE_MAX_BYTES", raising=False)
+    return root
+
 
 settings.register_profile("ci", derandomize=True, deadline=None, print_blob=True)
 settings.register_profile("dev", deadline=None, print_blob=True)

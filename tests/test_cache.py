@@ -31,14 +31,6 @@ from atmoscatter.cache import CacheWarning
 from atmoscatter.cli import main
 
 
-@pytest.fixture
-def cache_root(tmp_path, monkeypatch):
-    root = tmp_path / "cache"
-    monkeypatch.setenv("ATMOSCATTER_CACHE_DIR", str(root))
-    monkeypatch.delenv("ATMOSCATTER_CACHE_MAX_BYTES", raising=False)
-    return root
-
-
 def _arrays(seed=0):
     rng = np.random.default_rng(seed)
     return {

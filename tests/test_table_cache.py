@@ -22,14 +22,6 @@ from atmoscatter.sky import single as S
 GRID = M.MultipleScatteringGrid(6, 8, 8, 4)  # a small field: the tables are under test
 
 
-@pytest.fixture
-def cache_root(tmp_path, monkeypatch):
-    root = tmp_path / "cache"
-    monkeypatch.setenv("ATMOSCATTER_CACHE_DIR", str(root))
-    monkeypatch.delenv("ATMOSCATTER_CACHE_MAX_BYTES", raising=False)
-    return root
-
-
 def _new_process():
     """Forget everything held in memory (what a new process starts with)."""
     _single_table._TABLE_CACHE.clear()
