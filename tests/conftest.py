@@ -29,6 +29,7 @@ _SESSION_CACHE = tempfile.mkdtemp(prefix="atmoscatter-test-cache-")
 os.environ["ATMOSCATTER_CACHE_DIR"] = _SESSION_CACHE
 atexit.register(shutil.rmtree, _SESSION_CACHE, ignore_errors=True)
 
+
 @pytest.fixture
 def cache_root(tmp_path, monkeypatch):
     """A cache directory of the test's own (tests of the caching itself), default size cap."""

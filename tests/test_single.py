@@ -779,6 +779,7 @@ def test_render_of_a_few_given_directions_builds_no_sky_table(monkeypatch):
     for < 1 s of direct integration).  Reference: the same directions through
     ``method="graded"`` (the direct rule), within float32 output rounding."""
     import atmoscatter.sky.single as single_mod
+    from atmoscatter.render.physical_adapters import _evaluated_directions
 
     el, az = np.meshgrid(np.radians(np.linspace(1.0, 89.0, 6)),
                          np.radians(np.linspace(0.0, 360.0, 8, endpoint=False)))
@@ -786,8 +787,8 @@ def test_render_of_a_few_given_directions_builds_no_sky_table(monkeypatch):
     d = d.reshape(-1, 3)
     common = dict(model="single_scattering", sun_elevation_deg=-6.0, output="xyz",
                   sampling="rgb")
-    assert ac.Scene(**common).width * ac.Scene(**common).height // 4 >= \
-        single_mod.TWILIGHT_TABLE_THRESHOLD  # the projection alone would take the table
+    # the scene's projection alone would take the table
+    assert _evaluated_directions(ac.Scene(**common)) >= single_mod.TWILIGHT_TABLE_THRESHOLD
     _single_table._TABLE_CACHE.clear()
     img = ac.render(ac.Scene(**common), directions=d)
     assert not _single_table._TABLE_CACHE, "a whole-sky table was built for 48 directions"

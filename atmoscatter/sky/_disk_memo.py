@@ -11,7 +11,8 @@ built from scratch (one answer).  The key covers everything the values depend on
 caller's ``parts`` (atmosphere, observer radius, sun vector, table size, rule), the node
 directions themselves, :data:`VALUES_VERSION` and the package version.
 
-Entries are small (~0.3-2 MB at three wavelengths) and go through the cache's size cap
+Entries are small next to a field (``atmoscatter cache list`` shows both) and go through
+the cache's size cap
 and least-recently-used eviction like the fields (a field is touched by every render that
 uses it, a table only by renders of its own sun).
 """

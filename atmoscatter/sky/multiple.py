@@ -992,18 +992,17 @@ def _disk_key(atm_obj, grid, albedo, orders, tol):
 #: batch of one sky shares the table
 _MS_TABLES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 _MS_TABLES_LOCK = threading.Lock()
+_MS_TABLES_PER_FIELD = 4  # observers and suns kept per field (as _single_table's cache)
 
 
-def _ms_sky_table(atm_obj, atm, grid, albedo, orders, tol, field, logS, r0, s, n_mu, n_phi,
-                  direct):
-    """The :class:`_SkyTable` of the multiple-scattering part for this field, observer and
-    sun: built once per process (per field), its node values read from the persistent
-    cache when a process rendered this sky before (bit for bit the computed ones; see
-    :mod:`._disk_memo`)."""
+def _ms_sky_table(atm_obj, atm, fkey, albedo, field, logS, r0, s, n_mu, n_phi, direct):
+    """The :class:`_SkyTable` of the multiple-scattering part for this field (persistent
+    key ``fkey``, or ``None``), observer and sun: built once per process (per field), its
+    node values read from the persistent cache when a process rendered this sky before
+    (bit for bit the computed ones; see :mod:`._disk_memo`)."""
     key = (float(r0), tuple(float(x) for x in s), int(n_mu), int(n_phi), int(field.grid.order))
 
     def build():
-        fkey = _disk_key(atm_obj, grid, albedo, orders, tol)
         tkey = None if fkey is None else table_key(
             "multiple_scattering_table", fkey, key[0], list(key[1]), *key[2:])
         return _SkyTable(atm, r0, s, n_mu, n_phi, field.grid.order,
@@ -1020,14 +1019,15 @@ def _ms_sky_table(atm_obj, atm, grid, albedo, orders, tol, field, logS, r0, s, n
             return build()
         table = per_field.get(key)
         if table is None:
-            if len(per_field) >= 4:
+            if len(per_field) >= _MS_TABLES_PER_FIELD:
                 per_field.pop(next(iter(per_field)))
             table = per_field[key] = build()
     return table
 
 
 def _field_for(atm_obj, atm, grid, albedo, orders, tol=None):
-    """Field and Σ S^k for ``orders`` orders (or, with ``orders=None``, until ``tol``).
+    """Field, Σ S^k for ``orders`` orders (or, with ``orders=None``, until ``tol``), its
+    gather table and its persistent-cache key (``None``: not fingerprintable).
 
     Three levels: the summed source of this exact request in the process (``_RESULTS``),
     in the persistent cache (:mod:`atmoscatter.cache`, shared by processes and Dask
@@ -1078,7 +1078,7 @@ def _field_for(atm_obj, atm, grid, albedo, orders, tol=None):
     logS = res.get("logS")
     if logS is None:
         logS = _gather_table(field, res["S_sum"])
-    return field, res["S_sum"], logS
+    return field, res["S_sum"], logS, key
 
 
 def multiple_scattering(
@@ -1170,7 +1170,7 @@ def multiple_scattering(
     )
     if not atm.scatterers:
         return single
-    field, S_sum, logS = _field_for(atmosphere, atm, grid, albedo, n_orders, tol)
+    field, S_sum, logS, fkey = _field_for(atmosphere, atm, grid, albedo, n_orders, tol)
     vf = v.reshape(-1, 3)
     fin = finite.reshape(-1)
     vf = np.where(fin[:, None], vf, np.array([0.0, 0.0, 1.0]))
@@ -1194,8 +1194,8 @@ def multiple_scattering(
         # the sun), symmetric about the solar vertical: tabulate it like single scattering
         deep = s[2] < np.sin(np.radians(_DEEP_TWILIGHT_ELEVATION))
         n_mu_t, n_phi_t = _MS_TABLE_NODES_DEEP_TWILIGHT if deep else _MS_TABLE_NODES
-        table = _ms_sky_table(atmosphere, atm, grid, albedo, n_orders, tol, field, logS,
-                              r0, s, n_mu_t, n_phi_t, direct)
+        table = _ms_sky_table(atmosphere, atm, fkey, albedo, field, logS, r0, s, n_mu_t,
+                              n_phi_t, direct)
         extra = np.concatenate(
             [table.J(vf[i : i + 65536])[0] for i in range(0, vf.shape[0], 65536)], axis=0
         )
