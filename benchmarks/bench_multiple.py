@@ -35,15 +35,6 @@ SUN = np.array([0.0, np.cos(np.radians(30.0)), np.sin(np.radians(30.0))])
 VIEWS = np.array([[0.0, 0.0, 1.0], [0.0, 0.7, 0.7], [0.7, 0.0, 0.1]])
 
 
-def _clear_process_caches():
-    from atmoscatter.sky import _single_table
-
-    M._CACHE.clear()
-    M._RESULTS.clear()
-    M._MS_TABLES.clear()
-    _single_table._TABLE_CACHE.clear()
-
-
 def test_first_call_earth_rgb(benchmark, tmp_path, monkeypatch):
     """Field of ``earth_turbidity_atmosphere(2.5)`` at 3 wavelengths from nothing (in-process
     and disk caches empty, compiled kernels loaded)."""
@@ -51,7 +42,7 @@ def test_first_call_earth_rgb(benchmark, tmp_path, monkeypatch):
     atm = ac.earth_turbidity_atmosphere(2.5)
 
     def run():
-        _clear_process_caches()
+        M._clear_process_caches()
         return ac.multiple_scattering(atm, VIEWS, SUN)
 
     # compiled kernels loaded (numba cache) by a field on a tiny grid
@@ -71,7 +62,7 @@ def filled_cache(tmp_path_factory):
     path = tmp_path_factory.mktemp("ms_cache")
     with pytest.MonkeyPatch.context() as mp:
         mp.setenv("ATMOSCATTER_CACHE_DIR", str(path))
-        _clear_process_caches()
+        M._clear_process_caches()
         ref = ac.multiple_scattering(ac.earth_turbidity_atmosphere(2.5), VIEWS, SUN)
     return path, ref
 
@@ -83,7 +74,7 @@ def test_later_process_reads_the_disk_cache(benchmark, filled_cache, monkeypatch
     atm = ac.earth_turbidity_atmosphere(2.5)
 
     def run():
-        _clear_process_caches()
+        M._clear_process_caches()
         return ac.multiple_scattering(atm, VIEWS, SUN)
 
     out = benchmark.pedantic(run, rounds=3, iterations=1)
@@ -104,7 +95,7 @@ def test_warm_render(benchmark, filled_cache, monkeypatch, case):
     ac.render(scene)  # the default scene's field is the fixture's (or it is filled here)
 
     def run():
-        _clear_process_caches()
+        M._clear_process_caches()
         if case == "new_sun":
             cache.clear("single_scattering_table")
             cache.clear("multiple_scattering_table")

@@ -144,8 +144,7 @@ def scene_geometry(name):
 
 
 def clear_caches():
-    ms._CACHE.clear()
-    ms._RESULTS.clear()
+    ms._clear_process_caches(single=False)
 
 
 def evaluate(atm, scenes, config):

@@ -102,8 +102,7 @@ def hemisphere(n_az=N_AZ, n_el=N_EL):
 def _clear_caches():
     import atmoscatter.sky.multiple as msky  # noqa: PLC0415
 
-    msky._CACHE.clear()
-    msky._RESULTS.clear()
+    msky._clear_process_caches(single=False)
 
 
 def _scene(model, T, atm, elev, sampling, step):

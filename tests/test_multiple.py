@@ -162,8 +162,7 @@ def test_concurrent_calls_share_one_field(monkeypatch):
     monkeypatch.setenv("ATMOSCATTER_CACHE_DIR", "off")  # build the field here, not load it
     atm = _atm()
     serial = multiple_scattering(atm, _V, _S, orders=4, ground_albedo=0.3, grid=_COARSE)
-    ms_mod._CACHE.clear()
-    ms_mod._RESULTS.clear()
+    ms_mod._clear_process_caches(single=False)
     with ThreadPoolExecutor(4) as pool:
         outs = list(pool.map(lambda k: multiple_scattering(atm, _V, _S, orders=k, ground_albedo=0.3,
                                                            grid=_COARSE), [4, 3, 4, 4]))

@@ -995,6 +995,23 @@ _MS_TABLES_LOCK = threading.Lock()
 _MS_TABLES_PER_FIELD = 4  # observers and suns kept per field (as _single_table's cache)
 
 
+def _clear_process_caches(single: bool = True) -> None:
+    """Forget what this process holds in memory of multiple scattering — the field states,
+    the summed sources and the sky tables — and, with ``single``, the single-scattering
+    sky tables: what a new process starts with (the persistent cache is untouched).  For
+    the tests, benchmarks and studies that time or check a first call."""
+    with _CACHE_LOCK:
+        _CACHE.clear()
+        _RESULTS.clear()
+    with _MS_TABLES_LOCK:
+        _MS_TABLES.clear()
+    if single:
+        from . import _single_table
+
+        with _single_table._TABLE_LOCK:
+            _single_table._TABLE_CACHE.clear()
+
+
 def _ms_sky_table(atm_obj, atm, fkey, albedo, field, logS, r0, s, n_mu, n_phi, direct):
     """The :class:`_SkyTable` of the multiple-scattering part for this field (persistent
     key ``fkey``, or ``None``), observer and sun: built once per process (per field), its
