@@ -12,8 +12,7 @@ caller's ``parts`` (atmosphere, observer radius, sun vector, table size, rule), 
 directions themselves, :data:`VALUES_VERSION` and the package version.
 
 Entries are small next to a field (``atmoscatter cache list`` shows both) and go through
-the cache's size cap
-and least-recently-used eviction like the fields (a field is touched by every render that
+the cache's size cap and least-recently-used eviction like the fields (a field is touched by every render that
 uses it, a table only by renders of its own sun).
 """
 
