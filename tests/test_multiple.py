@@ -262,12 +262,62 @@ def test_large_batches_give_the_answer_of_small_ones(monkeypatch, turbidity, sun
      ({"n_phi": 2.5}, "n_phi"),
      ({"order": 0}, "order must be an integer >= 1"),
      ({"max_sun_zenith": 80.0}, r"max_sun_zenith must be in \(90, 180\]"),
-     ({"horizon_density": 0.5}, "horizon_density")],
+     ({"horizon_density": 0.5}, "horizon_density"),
+     ({"high_orders_from": 1}, "high_orders_from must be an integer >= 2")],
 )
 def test_bad_grid_is_a_one_line_error(kwargs, match):
     with pytest.raises(ValueError, match=match) as err:
         MultipleScatteringGrid(**kwargs)
     assert "\n" not in str(err.value) and "got" in str(err.value)
+
+
+def test_high_orders_grid_must_be_a_flat_grid():
+    with pytest.raises(TypeError, match="high_orders must be a MultipleScatteringGrid"):
+        MultipleScatteringGrid(high_orders=(12, 16, 12, 9))
+    inner = MultipleScatteringGrid(high_orders=_COARSE)
+    with pytest.raises(ValueError, match="must not have high_orders itself"):
+        MultipleScatteringGrid(high_orders=inner)
+
+
+@pytest.mark.parametrize("start", [2, 3, 5])
+@pytest.mark.parametrize("albedo", [0.0, 0.3])
+def test_high_orders_on_the_same_grid_change_nothing(monkeypatch, start, albedo):
+    """With ``high_orders`` equal to the grid itself, the orders from ``high_orders_from``
+    on run through the second grid's own rays, located in both tables, and the resampling
+    onto the first grid's nodes (at the nodes themselves: weights 0 and 1): the same
+    arithmetic as without, so the results agree to round-off (for fixed and automatic
+    orders, which test the decay across the switch, and with light from the ground)."""
+    monkeypatch.setenv("ATMOSCATTER_CACHE_DIR", "off")
+    atm = _atm()
+    both = MultipleScatteringGrid(12, 16, 12, 9, high_orders=_COARSE, high_orders_from=start)
+    sun_low = _dir(95, 180)  # 5° below the horizon
+    for s in (_S, sun_low):
+        for orders in (None, 6):
+            one = multiple_scattering(atm, _V, s, grid=_COARSE, orders=orders, ground_albedo=albedo)
+            two = multiple_scattering(atm, _V, s, grid=both, orders=orders, ground_albedo=albedo)
+            np.testing.assert_allclose(two, one, rtol=1e-12)
+
+
+def test_resampling_between_grids_reproduces_a_smooth_source():
+    """``_resample`` interpolates like the gather: a source ``exp`` of a function linear in
+    altitude, μ and φ and cubic in the solar zenith angle is reproduced exactly at another
+    grid's nodes, whatever the two grids — to the precision of the located samples'
+    fractions, which the compiled gather keeps in float32 (2⁻²⁴ relative, times the change
+    of ``log S`` across one interval, below 1 here: ≤ 1e-7)."""
+    from atmoscatter.sky import _quadrature as qd
+    from atmoscatter.sky import multiple as M
+
+    atm = qd.prepare_atmosphere(_atm())
+    src = M._Field(atm, MultipleScatteringGrid(8, 10, 8, 5, altitude_refine=1))
+    dst = M._Field(atm, MultipleScatteringGrid(6, 13, 6, 4))
+
+    def f(field):
+        h, t, m, p = np.meshgrid(field.h_nodes, field.ths, field.mu_out, field.phi_nodes,
+                                 indexing="ij")
+        logs = -h / 8000.0 + 0.3 * t**3 - 0.2 * t**2 + 0.5 * m + 0.1 * p
+        return np.exp(logs)[..., None, None] * np.array([1.0, 2.0])[:, None]
+
+    np.testing.assert_allclose(M._resample(src, f(src), dst), f(dst), rtol=2e-7)
 
 
 def test_negative_albedo_is_a_one_line_error():
@@ -462,8 +512,8 @@ def test_six_channel_gather_kernel_matches_the_generic_one():
     k = G._kernels()
     for mc in list(st.marches.values())[::5]:
         loc = mc.loc
-        args = (flat, n_s, n_mu, n_phi, loc.th_nodes, loc.start, loc.base, loc.frac, loc.wt)
-        a = np.empty((loc.start.size - 1, 6))
+        args = (flat, n_s, n_mu, n_phi, loc.th_nodes, loc.ray, loc.base, loc.frac, loc.wt)
+        a = np.empty((loc.n_rays, 6))
         b = np.empty_like(a)
         k["gather_log"](*args, a)
         k["gather_log6"](*args, b)

@@ -186,17 +186,23 @@ def gather(table, h_nodes, th_nodes, mu_nodes, h, mus, mu, cphi, wt, *, threads=
         return np.concatenate(list(pool.map(part, range(0, N, step))), axis=0)
 
 
-def pack_weights(wt, N: int, M: int):
-    """``(index, start, packed)`` of the samples of (N, M, C) weights ``wt`` that are non-zero
-    in some channel: flat sample indices, ray offsets (N + 1,) and the packed (K, C) weights
-    (see :class:`Located`).  Rays that share their weights (the grid's node rays at one
-    altitude, for every solar zenith angle) are packed once."""
+def pack_weights(wt, N: int, M: int, key=None):
+    """``(index, ray, packed)`` of the samples of (N, M, C) weights ``wt`` that are non-zero
+    in some channel: flat sample indices (K,), the ray of each (K,) int32 and the packed
+    (K, C) weights (see :class:`Located`).  Rays that share their weights (the grid's node
+    rays at one altitude, for every solar zenith angle) are packed once.
+
+    ``key`` (N, M) integers, optional: the samples come sorted by it (stable: along each
+    ray within equal keys) instead of ray by ray.  The gather adds each ray's samples in
+    the order given, so an order changes its sums only at round-off; one that follows the
+    table's rows makes its reads nearly sequential."""
     wt = np.asarray(wt).reshape(N, M, -1)
     keep = np.any(wt != 0, axis=-1)
     index = np.flatnonzero(keep)
-    start = np.zeros(N + 1, dtype=np.int64)
-    np.cumsum(np.count_nonzero(keep, axis=1), out=start[1:])
-    return index, start, np.ascontiguousarray(wt.reshape(N * M, -1)[index])
+    if key is not None:
+        index = index[np.argsort(np.asarray(key).reshape(-1)[index], kind="stable")]
+    ray = (index // max(M, 1)).astype(np.int32)
+    return index, ray, np.ascontiguousarray(wt.reshape(N * M, -1)[index])
 
 
 class Located:
@@ -207,11 +213,11 @@ class Located:
     Only the samples whose weight ``wt`` (N, M, C) is non-zero in some channel are kept
     (about half of a node-ray batch: the rays of a batch share one sample count, and
     the shorter ones are padded with empty panels); they contribute exactly nothing to
-    the sums, so leaving them out changes no value.  The kept samples of ray ``n`` are
-    ``start[n] ≤ s < start[n + 1]``, in their order along the ray: ``base`` (K,) int32
-    rows, ``frac`` (K, 4) float32 fractions, ``wt`` (K, C) weights (dtype of the input;
-    ``packed``: the result of :func:`pack_weights` for ``wt``, if already computed — the
-    packed weights are then shared, not copied).
+    the sums, so leaving them out changes no value.  Kept sample ``s`` belongs to ray
+    ``ray[s]``: ``base`` (K,) int32 rows, ``frac`` (K, 4) float32 fractions, ``wt`` (K, C)
+    weights (dtype of the input; ``packed``: the result of :func:`pack_weights` for
+    ``wt``, if already computed — the packed weights are then shared, not copied, and the
+    samples keep its order).
     """
 
     def __init__(self, shape_out, h_nodes, th_nodes, mu_nodes, h, mus, mu, cphi, wt, packed=None):
@@ -219,9 +225,10 @@ class Located:
         self.shape_out = shape_out
         self.th_nodes = np.ascontiguousarray(th_nodes, dtype=np.float64)
         N, M = h.shape
+        self.n_rays = N
         if packed is None:
             packed = pack_weights(wt, N, M)
-        index, self.start, self.wt = packed
+        index, self.ray, self.wt = packed
         K = index.size
         base = np.empty((K, 1), dtype=np.int64)
         frac = np.empty((K, 1, 4))
@@ -238,12 +245,12 @@ class Located:
         many gathers)."""
         n_h, n_s, n_mu, n_phi = self.shape_out
         tab = logt if isinstance(logt, LogTable) else LogTable(logt)
-        out = np.empty((self.start.size - 1, tab.shape[-1]))
+        out = np.empty((self.n_rays, tab.shape[-1]))
         k = _kernels()
         for c0, c1, flat in tab.blocks:
             # six channels (two scatterers × RGB, or a slab of a spectral table): the
             # kernel written out for them
             kern = k["gather_log6"] if c1 - c0 == 6 else k["gather_log"]
-            kern(flat, n_s, n_mu, n_phi, self.th_nodes, self.start, self.base, self.frac,
+            kern(flat, n_s, n_mu, n_phi, self.th_nodes, self.ray, self.base, self.frac,
                  self.wt[:, c0:c1], out[:, c0:c1])
         return out

@@ -95,120 +95,109 @@ def _corner_weights(n_s, d_h, d_s, n_phi, th_nodes, b, fi, fj, fk, fm, rows, u0,
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
-def _gather_log(logflat, n_s, n_mu, n_phi, th_nodes, start, base, frac, wt, out):  # pragma: no cover
-    """``out[n, c] = Σ_s wt[s, c] exp(interpolated log S_c)`` over the samples
-    ``start[n] ≤ s < start[n + 1]`` of ray ``n`` (packed: samples whose weight is zero in
-    every channel are not stored, they add exactly nothing); interpolation of
-    :func:`_corner_weights` on ``log S`` (``logflat``, rows × channels).
+def _gather_log(logflat, n_s, n_mu, n_phi, th_nodes, ray, base, frac, wt, out):  # pragma: no cover
+    """``out[n, c] = Σ_s wt[s, c] exp(interpolated log S_c)`` over the samples ``s`` of
+    ray ``n`` (``ray[s] == n``), added in the order of the samples (packed: samples whose
+    weight is zero in every channel are not stored, they add exactly nothing);
+    interpolation of :func:`_corner_weights` on ``log S`` (``logflat``, rows × channels).
+    The samples may come in any order: the field's node rays come sorted by their
+    (altitude, μ) cell, so that the table is read nearly in sequence (see
+    :func:`multiple._node_sample_order`).
 
     The channels are summed in blocks of four with the accumulators in registers (the
     same operations in the same order as one channel at a time, so the result does not
     depend on the blocking)."""
     C = logflat.shape[1]
     C4 = C - C % 4
-    N = start.shape[0] - 1
     d_h = n_s * n_mu * n_phi
     d_s = n_mu * n_phi
     u0 = np.empty(16)
     u1 = np.empty(16)
     rows = np.empty(16, dtype=np.int64)
     ex = np.empty(C)
-    for n in range(N):
-        for c in range(C):
-            out[n, c] = 0.0
-        for s in range(start[n], start[n + 1]):
-            _corner_weights(n_s, d_h, d_s, n_phi, th_nodes, base[s], frac[s, 0], frac[s, 1],
-                            frac[s, 2], frac[s, 3], rows, u0, u1)
-            for cb in range(0, C4, 4):
-                a0 = 0.0
-                a1 = 0.0
-                a2 = 0.0
-                a3 = 0.0
-                for r in range(16):
-                    p = rows[r]
-                    v0 = u0[r]
-                    v1 = u1[r]
-                    a0 += logflat[p, cb] * v0 + logflat[p + 1, cb] * v1
-                    a1 += logflat[p, cb + 1] * v0 + logflat[p + 1, cb + 1] * v1
-                    a2 += logflat[p, cb + 2] * v0 + logflat[p + 1, cb + 2] * v1
-                    a3 += logflat[p, cb + 3] * v0 + logflat[p + 1, cb + 3] * v1
-                ex[cb] = a0
-                ex[cb + 1] = a1
-                ex[cb + 2] = a2
-                ex[cb + 3] = a3
-            for c in range(C4, C):
-                a = 0.0
-                for r in range(16):
-                    p = rows[r]
-                    a += logflat[p, c] * u0[r] + logflat[p + 1, c] * u1[r]
-                ex[c] = a
-            for c in range(C):
-                out[n, c] += wt[s, c] * np.exp(ex[c])
-
-
-@numba.njit(cache=True, nogil=True, error_model="numpy")
-def _gather_log6(logflat, n_s, n_mu, n_phi, th_nodes, start, base, frac, wt, out):  # pragma: no cover
-    """:func:`_gather_log` for exactly six channels (two scatterers × three wavelengths: the
-    RGB field of every Earth and Mars preset), written out so that the stencil weights,
-    the six interpolated logarithms and the six sums of a ray stay in registers
-    (1.4× faster on the 2-core machine: ``benchmarks/bench_multiple.py``).  The same
-    products in the same order as :func:`_gather_log` — the corners in the order of
-    :func:`_corner_weights`, each weight formed as ``((w_i w_k)(1 − f_φ)) l_q`` — so both
-    agree to round-off (``tests/test_multiple.py``)."""
-    N = start.shape[0] - 1
-    d_h = n_s * n_mu * n_phi
-    d_s = n_mu * n_phi
-    lf = logflat.ravel()
-    for n in range(N):
-        o0 = 0.0
-        o1 = 0.0
-        o2 = 0.0
-        o3 = 0.0
-        o4 = 0.0
-        o5 = 0.0
-        for s in range(start[n], start[n + 1]):
-            b = np.int64(base[s])
-            fi = np.float64(frac[s, 0])
-            fj = np.float64(frac[s, 1])
-            fk = np.float64(frac[s, 2])
-            fm = np.float64(frac[s, 3])
-            bb, l0, l1, l2, l3 = _theta_stencil(n_s, d_s, th_nodes, b, fj)
+    out[:, :] = 0.0
+    for s in range(base.shape[0]):
+        _corner_weights(n_s, d_h, d_s, n_phi, th_nodes, base[s], frac[s, 0], frac[s, 1],
+                        frac[s, 2], frac[s, 3], rows, u0, u1)
+        for cb in range(0, C4, 4):
             a0 = 0.0
             a1 = 0.0
             a2 = 0.0
             a3 = 0.0
-            a4 = 0.0
-            a5 = 0.0
-            for di in range(2):
-                wi = fi if di == 1 else 1.0 - fi
-                for dk in range(2):
-                    wk = fk if dk == 1 else 1.0 - fk
-                    w = wi * wk
-                    w0 = w * (1.0 - fm)
-                    w1 = w * fm
-                    for q in range(4):
-                        lq = l0 if q == 0 else (l1 if q == 1 else (l2 if q == 2 else l3))
-                        v0 = w0 * lq
-                        v1 = w1 * lq
-                        p = (bb + di * d_h + dk * n_phi + q * d_s) * 6
-                        a0 += lf[p] * v0 + lf[p + 6] * v1
-                        a1 += lf[p + 1] * v0 + lf[p + 7] * v1
-                        a2 += lf[p + 2] * v0 + lf[p + 8] * v1
-                        a3 += lf[p + 3] * v0 + lf[p + 9] * v1
-                        a4 += lf[p + 4] * v0 + lf[p + 10] * v1
-                        a5 += lf[p + 5] * v0 + lf[p + 11] * v1
-            o0 += wt[s, 0] * np.exp(a0)
-            o1 += wt[s, 1] * np.exp(a1)
-            o2 += wt[s, 2] * np.exp(a2)
-            o3 += wt[s, 3] * np.exp(a3)
-            o4 += wt[s, 4] * np.exp(a4)
-            o5 += wt[s, 5] * np.exp(a5)
-        out[n, 0] = o0
-        out[n, 1] = o1
-        out[n, 2] = o2
-        out[n, 3] = o3
-        out[n, 4] = o4
-        out[n, 5] = o5
+            for r in range(16):
+                p = rows[r]
+                v0 = u0[r]
+                v1 = u1[r]
+                a0 += logflat[p, cb] * v0 + logflat[p + 1, cb] * v1
+                a1 += logflat[p, cb + 1] * v0 + logflat[p + 1, cb + 1] * v1
+                a2 += logflat[p, cb + 2] * v0 + logflat[p + 1, cb + 2] * v1
+                a3 += logflat[p, cb + 3] * v0 + logflat[p + 1, cb + 3] * v1
+            ex[cb] = a0
+            ex[cb + 1] = a1
+            ex[cb + 2] = a2
+            ex[cb + 3] = a3
+        for c in range(C4, C):
+            a = 0.0
+            for r in range(16):
+                p = rows[r]
+                a += logflat[p, c] * u0[r] + logflat[p + 1, c] * u1[r]
+            ex[c] = a
+        n = ray[s]
+        for c in range(C):
+            out[n, c] += wt[s, c] * np.exp(ex[c])
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _gather_log6(logflat, n_s, n_mu, n_phi, th_nodes, ray, base, frac, wt, out):  # pragma: no cover
+    """:func:`_gather_log` for exactly six channels (two scatterers × three wavelengths: the
+    RGB field of every Earth and Mars preset), written out so that the stencil weights
+    and the six interpolated logarithms stay in registers (1.4× faster on the 2-core
+    machine: ``benchmarks/bench_multiple.py``).  The same
+    products in the same order as :func:`_gather_log` — the corners in the order of
+    :func:`_corner_weights`, each weight formed as ``((w_i w_k)(1 − f_φ)) l_q`` — so both
+    agree to round-off (``tests/test_multiple.py``)."""
+    d_h = n_s * n_mu * n_phi
+    d_s = n_mu * n_phi
+    lf = logflat.ravel()
+    out[:, :] = 0.0
+    for s in range(base.shape[0]):
+        b = np.int64(base[s])
+        fi = np.float64(frac[s, 0])
+        fj = np.float64(frac[s, 1])
+        fk = np.float64(frac[s, 2])
+        fm = np.float64(frac[s, 3])
+        bb, l0, l1, l2, l3 = _theta_stencil(n_s, d_s, th_nodes, b, fj)
+        a0 = 0.0
+        a1 = 0.0
+        a2 = 0.0
+        a3 = 0.0
+        a4 = 0.0
+        a5 = 0.0
+        for di in range(2):
+            wi = fi if di == 1 else 1.0 - fi
+            for dk in range(2):
+                wk = fk if dk == 1 else 1.0 - fk
+                w = wi * wk
+                w0 = w * (1.0 - fm)
+                w1 = w * fm
+                for q in range(4):
+                    lq = l0 if q == 0 else (l1 if q == 1 else (l2 if q == 2 else l3))
+                    v0 = w0 * lq
+                    v1 = w1 * lq
+                    p = (bb + di * d_h + dk * n_phi + q * d_s) * 6
+                    a0 += lf[p] * v0 + lf[p + 6] * v1
+                    a1 += lf[p + 1] * v0 + lf[p + 7] * v1
+                    a2 += lf[p + 2] * v0 + lf[p + 8] * v1
+                    a3 += lf[p + 3] * v0 + lf[p + 9] * v1
+                    a4 += lf[p + 4] * v0 + lf[p + 10] * v1
+                    a5 += lf[p + 5] * v0 + lf[p + 11] * v1
+        n = ray[s]
+        out[n, 0] += wt[s, 0] * np.exp(a0)
+        out[n, 1] += wt[s, 1] * np.exp(a1)
+        out[n, 2] += wt[s, 2] * np.exp(a2)
+        out[n, 3] += wt[s, 3] * np.exp(a3)
+        out[n, 4] += wt[s, 4] * np.exp(a4)
+        out[n, 5] += wt[s, 5] * np.exp(a5)
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
