@@ -79,7 +79,14 @@ SCENES = {
 }
 
 DEFAULT = (ms.MULTIPLE_SCATTERING_GRID, ms.DEFAULT_ORDER_TOLERANCE)
-REFERENCE = (MultipleScatteringGrid(n_altitude=28, n_sun=64, n_mu=32, n_phi=25, order=4), 1e-5)
+#: finer than the default and the accurate grid in every knob, and than every value of the
+#: sweep but the largest Gauss order (equal): shared with ``ms_accurate_grid.py``
+REFERENCE = (MultipleScatteringGrid(n_altitude=36, n_sun=64, n_mu=40, n_phi=25, order=4), 1e-5)
+#: the reference radiances of the full run's scenes, kept between runs (the reference
+#: does not depend on the grids measured against it; about 30 minutes of builds): a run
+#: reuses them while the method (field version), the reference grid, the atmospheres and
+#: the scene geometry are unchanged, and recomputes and stores them otherwise
+REFERENCE_STORE = ROOT / "docs" / "convergence" / "ms_reference_values.npz"
 KNOBS = {
     "n_sun": (20, 32, 48),
     "n_mu": (16, 24, 32),
@@ -164,6 +171,53 @@ def evaluate(atm, scenes, config):
     return out, build, evals
 
 
+STORE_NOTE = ("The reference radiances are kept in `ms_reference_values.npz` (next to the "
+              "tables) and reused by later runs while the method (field version), the reference grid, "
+              "the atmospheres and the scenes are unchanged; the build time is that of the "
+              "run that computed them.")
+
+
+def _reference_key(atm, names, reference) -> str:
+    """Fingerprint of everything the reference radiances of ``names`` depend on."""
+    from atmoscatter import cache
+
+    grid, tol = reference
+    geometry = [[n, *scene_geometry(n)] for n in names]
+    return cache.fingerprint("ms_reference", ms._FIELD_VERSION, atm, grid, float(tol), geometry)[:16]
+
+
+def reference_values(atm, names, reference, store=None, progress=print):
+    """``({scene: radiance}, build [s], note)`` of the reference for ``names``.
+
+    With ``store`` (an ``.npz`` path), values stored there by an earlier run for the same
+    fingerprint (:func:`_reference_key`: field version, reference grid and tolerance,
+    atmosphere, scene geometry) are read back, with the build time and date of the run
+    that computed them (``note``); otherwise they are computed as any grid is
+    (:func:`evaluate`) and added to the store (written atomically)."""
+    key = _reference_key(atm, names, reference)
+    data = {}
+    if store is not None and Path(store).exists():
+        with np.load(store) as z:
+            data = {k: z[k] for k in z.files}
+    if f"{key}/build_s" in data:
+        out = {n: data[f"{key}/{n}"] for n in names}
+        note = str(data[f"{key}/note"])
+        progress(f"reference read from {store} ({note})")
+        return out, float(data[f"{key}/build_s"]), note
+    out, build, _ = evaluate(atm, names, reference)
+    note = f"computed {time.strftime('%Y-%m-%d')}"
+    if store is not None:
+        data.update({f"{key}/{n}": out[n] for n in names})
+        data[f"{key}/build_s"] = np.array(build)
+        data[f"{key}/note"] = np.array(note)
+        Path(store).parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(dir=Path(store).parent, suffix=".npz")
+        os.close(fd)
+        np.savez_compressed(tmp, **data)
+        os.replace(tmp, store)
+    return out, build, note
+
+
 def errors(total, ref, single):
     """(max rel. error of the total, of the MS part) over directions above the floor."""
     keep = ref >= FLOOR * np.max(ref, axis=0, keepdims=True)
@@ -214,13 +268,14 @@ def machine_text() -> str:
             f"{ms._THREADS} threads")
 
 
-def study(scenes, knobs, default, reference, sweep_atms, progress=print, on_atmosphere=None):
+def study(scenes, knobs, default, reference, sweep_atms, progress=print, on_atmosphere=None,
+          store=None):
     records, refinfo = [], {}
     warm_up()
     for akey, names in by_atmosphere(scenes).items():
         atm = ATMOSPHERES[akey]()
         single = single_of(atm, names)
-        ref, t_ref, _ = evaluate(atm, names, reference)
+        ref, t_ref, _ = reference_values(atm, names, reference, store, progress)
         refinfo[akey] = t_ref
         progress(f"{akey}: reference built in {t_ref:.1f} s")
         done = {}
@@ -294,14 +349,22 @@ def table_markdown(records, refinfo, scenes, default, reference, machine):
         shown = f"{mark}{val}{mark}" if val not in ("", "None") else "(default grid)"
         lines.append(f"| {knob} | {shown} | {b} | {e} |")
     lines += ["", "Reference build time [s]: " + ", ".join(
-        f"{a} {t:.0f}" for a, t in refinfo.items()) + "."]
+        f"{a} {t:.0f}" for a, t in refinfo.items()) + ".",
+              "", STORE_NOTE]
     return "\n".join(lines) + "\n"
 
 
 def _grid_text(cfg):
     g, tol = cfg
-    return (f"n_altitude {g.n_altitude}, n_sun {g.n_sun}, n_mu {g.n_mu}, n_phi {g.n_phi}, "
-            f"order {g.order}, order_tolerance {tol:g}")
+
+    def knobs(x):
+        return (f"n_altitude {x.n_altitude}, n_sun {x.n_sun}, n_mu {x.n_mu}, n_phi {x.n_phi}, "
+                f"order {x.order}")
+
+    text = knobs(g)
+    if g.high_orders is not None:
+        text += f" (orders ≥ {g.high_orders_from}: {knobs(g.high_orders)})"
+    return f"{text}, order_tolerance {tol:g}"
 
 
 def regime_summary(rows):
@@ -446,10 +509,12 @@ def main(argv=None) -> int:
         scenes = args.scenes or ["clear_noon", "civil_twilight"]
         knobs, default, reference = QUICK_KNOBS, QUICK_DEFAULT, QUICK_REFERENCE
         out = Path(args.out or tempfile.mkdtemp(prefix="atmoscatter-ms-convergence-"))
+        store = out / REFERENCE_STORE.name
     else:
         scenes = args.scenes or list(SCENES)
         knobs, default, reference = KNOBS, DEFAULT, REFERENCE
         out = Path(args.out or ROOT / "docs" / "convergence")
+        store = REFERENCE_STORE
     sweep = tuple(ATMOSPHERES) if args.sweep_all else SWEEP_ATMOSPHERES
     machine = machine_text()
     t0 = time.perf_counter()
@@ -460,7 +525,7 @@ def main(argv=None) -> int:
             records, refinfo, scenes, default, reference, machine, out, sweep,
             official=not (args.quick or args.out or args.scenes), quick=args.quick)
 
-    study(scenes, knobs, default, reference, sweep, on_atmosphere=write)
+    study(scenes, knobs, default, reference, sweep, on_atmosphere=write, store=store)
     print(f"wrote {', '.join(str(p) for p in state['paths'])} in {time.perf_counter() - t0:.1f} s")
     print(state["table"])
     return 0

@@ -96,12 +96,14 @@ GENERATORS: tuple[Generator, ...] = (
     Generator(
         "ms_convergence", "benchmarks/ms_convergence.py", (), ("--quick", "--out", "{out}"),
         ("docs/convergence/ms_convergence.csv", "docs/convergence/ms_convergence_table.md",
-         "docs/convergence/ms_convergence.png", "docs/convergence.md"),
-        "~45 min", full_needs="--with-ms-study",
+         "docs/convergence/ms_convergence.png", "docs/convergence.md",
+         "docs/convergence/ms_reference_values.npz"),
+        "~45 min (~15 with the stored reference)", full_needs="--with-ms-study",
         notes="multiple scattering: error against build time per grid knob"),
     Generator(
         "ms_accurate_grid", "benchmarks/ms_accurate_grid.py", (), ("--quick", "--out", "{out}"),
-        ("docs/convergence/ms_accurate_grid.md", "atmoscatter/data/ms_accuracy.json"), "~40 min",
+        ("docs/convergence/ms_accurate_grid.md", "atmoscatter/data/ms_accuracy.json",
+         "docs/convergence/ms_reference_values.npz"), "~40 min (~10 with the stored reference)",
         full_needs="--with-ms-study",
         notes="multiple scattering: default and accurate grid against a grid finer in every "
               "knob; the EXR header's figures"),

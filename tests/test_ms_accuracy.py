@@ -295,3 +295,42 @@ def test_twilight_fisheye_uses_the_single_scattering_table(model, monkeypatch):
         unregister_model(model)
         if previous is not None:
             register_model(previous)
+
+
+def test_the_study_reuses_its_stored_reference_only_for_the_same_method(tmp_path, monkeypatch):
+    """``benchmarks/ms_convergence.reference_values`` reads the reference radiances back
+    from its store for the same field version, reference grid, atmosphere and scenes, and
+    computes them anew when any of those changed (a stale reference is never reused)."""
+    from dataclasses import replace
+    from pathlib import Path
+
+    monkeypatch.setenv("ATMOSCATTER_CACHE_DIR", "off")
+    monkeypatch.syspath_prepend(str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    import ms_convergence as mc
+
+    from atmoscatter.sky import multiple as M
+
+    atm = mc.ATMOSPHERES["mars"]()
+    store = tmp_path / "ref.npz"
+    quiet = {"progress": lambda *_: None}
+    first, t_first, _ = mc.reference_values(atm, ["mars"], mc.QUICK_REFERENCE, store, **quiet)
+
+    def recomputed(*_a, **_k):
+        raise AssertionError("recomputed")
+
+    monkeypatch.setattr(mc, "evaluate", recomputed)
+    again, t_again, note = mc.reference_values(atm, ["mars"], mc.QUICK_REFERENCE, store, **quiet)
+    np.testing.assert_array_equal(again["mars"], first["mars"])  # the stored bytes
+    assert t_again == t_first and note.startswith("computed ")
+    grid, tol = mc.QUICK_REFERENCE
+    changed = [
+        (atm, ["mars"], (replace(grid, n_sun=grid.n_sun + 2), tol)),  # another reference grid
+        (atm, ["mars"], (grid, tol / 2)),
+        (mc.ATMOSPHERES["earth_t2.5"](), ["clear_noon"], mc.QUICK_REFERENCE),  # atmosphere, scene
+    ]
+    for args in changed:
+        with pytest.raises(AssertionError, match="recomputed"):
+            mc.reference_values(*args, store, **quiet)
+    monkeypatch.setattr(M, "_FIELD_VERSION", M._FIELD_VERSION + 1)  # the method changed
+    with pytest.raises(AssertionError, match="recomputed"):
+        mc.reference_values(atm, ["mars"], mc.QUICK_REFERENCE, store, **quiet)

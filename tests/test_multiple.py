@@ -277,6 +277,9 @@ def test_high_orders_grid_must_be_a_flat_grid():
     inner = MultipleScatteringGrid(high_orders=_COARSE)
     with pytest.raises(ValueError, match="must not have high_orders itself"):
         MultipleScatteringGrid(high_orders=inner)
+    # --explain names both grids
+    assert inner.describe().endswith("; orders ≥ 3 on (" + _COARSE.describe() + ")")
+    assert "high_orders" not in _COARSE.describe() and "n_mu 12" in _COARSE.describe()
 
 
 @pytest.mark.parametrize("start", [2, 3, 5])

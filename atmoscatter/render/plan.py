@@ -446,7 +446,6 @@ def plan(scene: Scene, *, batch_size: int | None = None, atmosphere=None) -> Pla
 def _numerics_text(scene: Scene) -> str:
     """What :attr:`Plan.numerics` says for ``scene`` (physical models only)."""
     if scene.model == "multiple_scattering":
-        import dataclasses  # noqa: PLC0415
 
         from ..sky import multiple  # noqa: PLC0415 - light: kernels load on first use
 
@@ -459,8 +458,7 @@ def _numerics_text(scene: Scene) -> str:
         else:
             orders = f"{scene.orders} scattering order{'s' if scene.orders != 1 else ''} (fixed)"
         name = scene.ms_grid or "default"
-        g = dataclasses.asdict(multiple.MULTIPLE_SCATTERING_GRIDS[name])
-        grid = ", ".join(f"{k} {v:g}" for k, v in g.items())
+        grid = multiple.MULTIPLE_SCATTERING_GRIDS[name].describe()
         return (f"{orders}; order 1 by single_scattering, higher orders from a precomputed "
                 f"field on the {name} grid ({grid}; kept in the on-disk cache)")
     if scene.model == "single_scattering":

@@ -86,7 +86,7 @@ import os
 import threading
 import warnings
 import weakref
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import numpy as np
 
@@ -196,6 +196,15 @@ class MultipleScatteringGrid:
                 raise ValueError(
                     "MultipleScatteringGrid.high_orders must not have high_orders itself"
                 )
+
+    def describe(self) -> str:
+        """The grid in words: every knob and its value (and, with ``high_orders``, the
+        second grid's), as ``--explain`` prints it."""
+        text = ", ".join(f"{f.name} {getattr(self, f.name):g}" for f in fields(self)
+                         if f.name not in ("high_orders", "high_orders_from"))
+        if self.high_orders is not None:
+            text += f"; orders ≥ {self.high_orders_from} on ({self.high_orders.describe()})"
+        return text
 
     def sun_zenith_nodes(self) -> np.ndarray:
         """Solar zenith nodes [rad], increasing, from 0 to ``max_sun_zenith``.
