@@ -20,12 +20,14 @@ build, so the build time is that of a first call.
 
 Writes ``ms_convergence.csv``, ``ms_convergence_table.md`` and ``ms_convergence.png``; the
 full run also replaces the generated block of ``docs/convergence.md`` (with the worst
-default-grid errors per sun / observer regime against this study's reference).  The
-figures the EXR header quotes (``atmoscatter/data/ms_accuracy.json``) are measured by
-``benchmarks/ms_accurate_grid.py`` against a reference finer in every knob: this study's
-reference equals the finest value of each knob, so it cannot measure the last point of a
-curve.  The full run takes about 20-25 minutes on a
-shared 2-core machine; ``--quick`` (tiny grids, two scenes) well under a minute.
+default-grid errors per sun / observer regime).  The reference is the one of
+``benchmarks/ms_accurate_grid.py`` (which measures the figures the EXR header quotes,
+``atmoscatter/data/ms_accuracy.json``): finer than the default and the accurate grid in
+every knob, and than every value of the sweep but the largest Gauss order.  Its radiances
+are kept in ``docs/convergence/ms_reference_values.npz`` (:func:`reference_values`), so the
+full run takes a few minutes on the 2-core machine while the method is unchanged (about
+30 minutes more when the reference must be built again); ``--quick`` (tiny grids, two
+scenes) well under a minute.
 """
 
 from __future__ import annotations
@@ -478,9 +480,9 @@ def splice_docs(doc: Path, table: str, js: dict):
     text = doc.read_text(encoding="utf-8")
     if BEGIN not in text or END not in text:
         return False
-    summary = ["", "Default grid, worst over the scenes of each regime, against this study's "
-               "reference (the EXR header quotes the measurement against the finer reference "
-               "of the next section, `atmoscatter/data/ms_accuracy.json`):", "",
+    summary = ["", "Default grid, worst over the scenes of each regime, against the reference "
+               "(the same figures as the EXR header's, `atmoscatter/data/ms_accuracy.json`, "
+               "measured by `benchmarks/ms_accurate_grid.py` against the same reference):", "",
                "| regime | scenes | max rel. error, total | of the MS part |", "|---|---|---:|---:|"]
     for group in ("sun_regimes_ground_observer", "observer_regimes"):
         for v in js[group].values():

@@ -3,7 +3,7 @@
 Usage (from the repository root)::
 
     python scripts/make_docs_data.py                  # full: rewrite docs/, atmoscatter/data/, notebooks/
-    python scripts/make_docs_data.py --with-ms-study  # also the multiple-scattering study (~45 min)
+    python scripts/make_docs_data.py --with-ms-study  # also the multiple-scattering studies
     python scripts/make_docs_data.py --quick --out DIR  # CI: every generator's quick mode, into DIR
     python scripts/make_docs_data.py --list           # the generators, their outputs and cost
     python scripts/make_docs_data.py --only gallery convergence  # a subset (full or quick)
@@ -16,12 +16,12 @@ mode runs the same scripts on tiny problems and writes only into ``--out`` (a te
 directory by default), to prove in CI that they still work — its numbers are not for
 publishing.
 
-The multiple-scattering convergence study (``benchmarks/ms_convergence.py``, about 45
-minutes on a shared 2-core machine) and the measurement of the named grids against a finer
-reference (``benchmarks/ms_accurate_grid.py``, about 40 minutes; it rewrites
-``atmoscatter/data/ms_accuracy.json``, the renderer's error statement) run in the full
-mode only with ``--with-ms-study``.  The
-quick mode always runs its smoke test.  The spectral-sampling study (~20 min) rewrites
+The multiple-scattering convergence study (``benchmarks/ms_convergence.py``) and the
+measurement of the named grids against a finer reference (``benchmarks/ms_accurate_grid.py``;
+it rewrites ``atmoscatter/data/ms_accuracy.json``, the renderer's error statement) run in
+the full mode only with ``--with-ms-study``: minutes while their stored reference
+(``docs/convergence/ms_reference_values.npz``) is current, half an hour more when the
+method changed.  The quick mode always runs its smoke test.  The spectral-sampling study (~20 min) rewrites
 ``atmoscatter/data/spectral_sampling.json`` (the rule of ``sampling="auto"``); skip it with
 ``--skip spectral_sampling`` when only the pages are wanted.
 
@@ -98,12 +98,12 @@ GENERATORS: tuple[Generator, ...] = (
         ("docs/convergence/ms_convergence.csv", "docs/convergence/ms_convergence_table.md",
          "docs/convergence/ms_convergence.png", "docs/convergence.md",
          "docs/convergence/ms_reference_values.npz"),
-        "~45 min (~15 with the stored reference)", full_needs="--with-ms-study",
+        "~3 min (+30 when the stored reference is stale)", full_needs="--with-ms-study",
         notes="multiple scattering: error against build time per grid knob"),
     Generator(
         "ms_accurate_grid", "benchmarks/ms_accurate_grid.py", (), ("--quick", "--out", "{out}"),
         ("docs/convergence/ms_accurate_grid.md", "atmoscatter/data/ms_accuracy.json",
-         "docs/convergence/ms_reference_values.npz"), "~40 min (~10 with the stored reference)",
+         "docs/convergence/ms_reference_values.npz"), "~3 min (+30 when the stored reference is stale)",
         full_needs="--with-ms-study",
         notes="multiple scattering: default and accurate grid against a grid finer in every "
               "knob; the EXR header's figures"),
@@ -167,7 +167,7 @@ def main(argv=None) -> int:
                     help="quick mode of every generator, into --out (CI); nothing in docs/ changes")
     ap.add_argument("--out", default=None, help="output directory of --quick (default: a temp dir)")
     ap.add_argument("--with-ms-study", action="store_true",
-                    help="full mode: also run benchmarks/ms_convergence.py (~45 min)")
+                    help="full mode: also run the multiple-scattering studies")
     ap.add_argument("--only", nargs="+", metavar="NAME", help="run only these generators")
     ap.add_argument("--skip", nargs="+", metavar="NAME", help="do not run these generators")
     ap.add_argument("--list", action="store_true", help="list the generators and exit")
@@ -216,7 +216,7 @@ def main(argv=None) -> int:
     if args.quick:
         print(f"quick outputs in {base}")
     elif not args.with_ms_study and not args.only:
-        print("ms_convergence not run (45 min): add --with-ms-study to regenerate it")
+        print("ms_convergence not run: add --with-ms-study to regenerate it")
     return 1 if failed else 0
 
 
