@@ -56,6 +56,7 @@ ROOT = Path(__file__).resolve().parents[1]
 ATMOSPHERES = {
     "earth_t2.5": lambda: earth_turbidity_atmosphere(2.5),
     "earth_t6": lambda: earth_turbidity_atmosphere(6.0),
+    "earth_t10": lambda: earth_turbidity_atmosphere(10.0),
     "mars": lambda: mars_atmosphere(),
 }
 
@@ -71,6 +72,7 @@ AZIMUTHS = (0, 36, 72, 108, 144, 180)  # [deg] from the solar vertical (symmetri
 SCENES = {
     "clear_noon": ("earth_t2.5", 60.0, 0.0, _GROUND_ZENITH),
     "hazy_t6": ("earth_t6", 45.0, 0.0, _GROUND_ZENITH),
+    "hazy_t10": ("earth_t10", 20.0, 0.0, _GROUND_ZENITH),
     "sunset": ("earth_t2.5", 2.0, 0.0, _GROUND_ZENITH),
     "civil_twilight": ("earth_t2.5", -6.0, 0.0, _GROUND_ZENITH),
     "nautical_twilight": ("earth_t2.5", -10.0, 0.0, _GROUND_ZENITH),
@@ -374,7 +376,10 @@ def regime_summary(rows):
     ``atmosphere``, ``max_rel_total``, ``max_rel_ms``): ``{"sun_regimes_ground_observer":
     …, "observer_regimes": …}`` (the layout of ``atmoscatter/data/ms_accuracy.json``,
     which ``benchmarks/ms_accurate_grid.py`` writes)."""
-    top = {"earth_t2.5": 60e3, "earth_t6": 60e3, "mars": 100e3}
+    top = {}
+    for key in ATMOSPHERES:
+        atm = ATMOSPHERES[key]()
+        top[key] = atm.top_radius - atm.planet_radius
 
     def worst(sel):
         sel = list(sel)

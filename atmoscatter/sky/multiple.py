@@ -8,8 +8,8 @@ multiple_scattering
 MULTIPLE_SCATTERING_GRID
     The default grid of the precomputed radiance field (documents its resolution).
 ACCURATE_MULTIPLE_SCATTERING_GRID
-    A finer grid, two to three times the first-call cost, for the 1 % bound at low sun, in
-    haze and across the limb.
+    A finer grid, two to three times the first-call cost, for about 1 % of the total at low
+    sun, in haze and across the limb (measured: ``docs/convergence.md``).
 MULTIPLE_SCATTERING_GRIDS
     Both, by name (``"default"``, ``"accurate"``): what ``Scene.ms_grid`` selects.
 
@@ -225,7 +225,7 @@ MULTIPLE_SCATTERING_GRID = MultipleScatteringGrid()
 """Default grid (chosen from the error-against-run-time study in ``docs/convergence.md``)."""
 
 ACCURATE_MULTIPLE_SCATTERING_GRID = MultipleScatteringGrid(n_altitude=28, n_sun=40, n_mu=32)
-"""A finer grid for the 1 % total-radiance bound at low sun, in haze and across the limb
+"""A finer grid for about 1 % of the total radiance at low sun, in haze and across the limb
 (``grid=ACCURATE_MULTIPLE_SCATTERING_GRID``): finer in altitude (the horizon band of hazy
 skies), view zenith (the zenith cap, the limb) and solar zenith (twilight); two to three
 times the default's first-call cost.  Its error against a grid refined beyond it, next to the
