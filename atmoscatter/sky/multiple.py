@@ -822,6 +822,7 @@ class _FieldState:
         self.L_field = field  # the grid it lives on
         self.S: list[np.ndarray] = []  # S^1, S^2, ... (S^k on high_orders for k ≥ K)
         self.high = None  # _HighOrders, made when the first high order is asked for
+        self._sums: dict = {}  # running sums of the sources (:meth:`_prefix`)
 
     def _high_from(self):
         """The first order K on the grid's ``high_orders`` (``None``: no such grid)."""
@@ -880,7 +881,7 @@ class _FieldState:
 
     def _prefix(self, a: int, b: int) -> np.ndarray:
         """``S^{a+1} + … + S^b`` (a fresh array), from ``self._sums[(a, b - 1)]``."""
-        sums = self.__dict__.setdefault("_sums", {})
+        sums = self._sums
         if (a, b) not in sums:
             if b - a <= 1:
                 sums[(a, b)] = self.S[a] if b > a else np.zeros_like(self.S[0])
@@ -985,8 +986,8 @@ def _node_sample_order(field: _Field, h: np.ndarray, mu: np.ndarray) -> np.ndarr
     depends on the sun, so one order serves every cell of an altitude (the packed weights
     are shared).  Gathered in this order, a cell reads the table nearly in sequence
     instead of jumping across it ray by ray: the same sums (in another order: round-off),
-    1.3–1.5× faster on the 2-core machine, whose cores share their last-level cache with
-    other work (``benchmarks/bench_multiple.py``)."""
+    faster on the 2-core machine, whose cores share their last-level cache with other
+    work (``benchmarks/bench_multiple.py::test_first_call_earth_rgb``; CHANGELOG)."""
     i = np.clip(np.searchsorted(field.h_fine, h, side="right") - 1, 0, field.h_fine.size - 2)
     k = np.clip(np.searchsorted(field.mu_out, mu, side="right") - 1, 0, field.mu_out.size - 2)
     return i * field.mu_out.size + k
