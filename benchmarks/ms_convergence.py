@@ -54,6 +54,7 @@ from atmoscatter.sky.multiple import MultipleScatteringGrid  # noqa: E402
 ROOT = Path(__file__).resolve().parents[1]
 
 ATMOSPHERES = {
+    "earth_t1.5": lambda: earth_turbidity_atmosphere(1.5),
     "earth_t2.5": lambda: earth_turbidity_atmosphere(2.5),
     "earth_t6": lambda: earth_turbidity_atmosphere(6.0),
     "earth_t10": lambda: earth_turbidity_atmosphere(10.0),
@@ -71,6 +72,7 @@ AZIMUTHS = (0, 36, 72, 108, 144, 180)  # [deg] from the solar vertical (symmetri
 #: scene -> (atmosphere, sun elevation [deg], observer altitude [m], view zenith angles [deg])
 SCENES = {
     "clear_noon": ("earth_t2.5", 60.0, 0.0, _GROUND_ZENITH),
+    "clear_t1.5_low_sun": ("earth_t1.5", 5.0, 0.0, _GROUND_ZENITH),
     "hazy_t6": ("earth_t6", 45.0, 0.0, _GROUND_ZENITH),
     "hazy_t10": ("earth_t10", 20.0, 0.0, _GROUND_ZENITH),
     "sunset": ("earth_t2.5", 2.0, 0.0, _GROUND_ZENITH),
