@@ -263,6 +263,10 @@ def test_large_batches_give_the_answer_of_small_ones(monkeypatch, turbidity, sun
      ({"order": 0}, "order must be an integer >= 1"),
      ({"max_sun_zenith": 80.0}, r"max_sun_zenith must be in \(90, 180\]"),
      ({"horizon_density": 0.5}, "horizon_density"),
+     ({"sun_nodes": "sun"}, "sun_nodes must be 'all' or 'scene'"),
+     ({"sun_zenith": 30.0}, "sun_zenith is only for sun_nodes='scene'"),
+     ({"sun_nodes": "scene", "sun_zenith": 130.0}, r"sun_zenith must be None or in \[0, "),
+     ({"sun_width": 0.0}, r"sun_width must be in \(0, 180\]"),
      ({"high_orders_from": 1}, "high_orders_from must be an integer >= 2")],
 )
 def test_bad_grid_is_a_one_line_error(kwargs, match):
@@ -346,7 +350,7 @@ def test_ground_irradiance_of_an_isotropic_field_is_pi():
     from atmoscatter.sky import _quadrature as qd
     from atmoscatter.sky import multiple as M
 
-    f = M._Field(qd.prepare_atmosphere(_atm()), M.MULTIPLE_SCATTERING_GRID)
+    f = M._Field(qd.prepare_atmosphere(_atm()), M.MULTIPLE_SCATTERING_GRID.for_sun(30.0))
     L = np.ones(f.shape + (1,))
     np.testing.assert_allclose(M._ground_irradiance(f, L), np.pi, rtol=1e-12)
 
@@ -683,29 +687,96 @@ def test_altitude_refinement_of_the_log_source():
 
 
 def test_accurate_grid_is_finer_than_the_default_where_the_default_misses(monkeypatch):
-    # docs/convergence.md ("The accurate grid"): the default's worst errors are in the
-    # horizon band of hazy skies (altitude), the zenith cap and the limb (view zenith) and
-    # twilight (solar zenith); the accurate grid refines those three and coarsens nothing
+    # docs/convergence.md ("The accurate grid"): the accurate grid refines the default in
+    # solar zenith, view zenith (the limb) and azimuth and coarsens nothing; both centre
+    # their solar-zenith nodes on the scene's sun
     acc, default = ac.ACCURATE_MULTIPLE_SCATTERING_GRID, ac.MULTIPLE_SCATTERING_GRID
-
-    for knob in ("n_altitude", "n_sun", "n_mu"):
+    assert acc.sun_nodes == default.sun_nodes == "scene"
+    for knob in ("n_sun", "n_mu", "n_phi"):
         assert getattr(acc, knob) > getattr(default, knob), knob
-    for knob in ("n_phi", "order", "altitude_refine"):
+    for knob in ("n_altitude", "order", "altitude_refine"):
         assert getattr(acc, knob) >= getattr(default, knob), knob
-    assert (acc.max_sun_zenith, acc.horizon_density) == (default.max_sun_zenith,
-                                                          default.horizon_density)
-    # the measured statement names the grid it measured (importing the benchmark turns the
-    # disk cache off in os.environ: monkeypatch restores it)
+    assert (acc.max_sun_zenith, acc.sun_width) == (default.max_sun_zenith, default.sun_width)
+    # the measured statement names the grids it measured (importing the benchmark turns
+    # the disk cache off in os.environ: monkeypatch restores it)
     from pathlib import Path
 
     monkeypatch.setenv("ATMOSCATTER_CACHE_DIR", "off")
     monkeypatch.syspath_prepend(str(Path(__file__).resolve().parents[1] / "benchmarks"))
     import ms_accurate_grid
 
-    assert ms_accurate_grid.GRIDS["accurate"][0] == acc
+    assert {k: v[0] for k, v in ms_accurate_grid.GRIDS.items()} == ac.MULTIPLE_SCATTERING_GRIDS
     ref = ms_accurate_grid.REFERENCE[0]
-    for knob in ("n_altitude", "n_sun", "n_mu", "n_phi", "order"):
-        assert getattr(ref, knob) > getattr(acc, knob), knob
+    for grid in ac.MULTIPLE_SCATTERING_GRIDS.values():
+        for knob in ("n_altitude", "n_mu", "n_phi", "order"):
+            assert getattr(ref, knob) > getattr(grid, knob), knob
+
+
+def test_scene_grid_puts_a_node_on_the_sun_and_spans_every_solar_zenith():
+    """A grid centred on the scene's sun has a node exactly at its solar zenith, nodes
+    from 0 to max_sun_zenith, increasing, ≤ 3° apart within 6° of the sun and farther
+    apart away from it (issue 10: the accuracy of a large table at the sun for the cost
+    of 16 nodes)."""
+    g = ac.MULTIPLE_SCATTERING_GRID
+    for zen in (0.0, 0.3, 30.0, 60.0, 89.0, 96.0, 102.0, 108.0, 119.9, 120.0):
+        th = np.degrees(g.for_sun(zen).sun_zenith_nodes())
+        assert th.size == g.n_sun
+        assert th[0] == 0.0 and th[-1] == pytest.approx(120.0)
+        assert np.all(np.diff(th) > 0.5), zen  # no near-duplicate nodes
+        assert np.min(np.abs(th - zen)) <= (1e-9 if 2.0 < zen < 118.0 else 1.5), zen
+        near = np.diff(th)[np.abs((th[:-1] + th[1:]) / 2 - zen) < 6.0]
+        assert near.size and np.max(near) <= 3.0, zen
+        far = np.diff(th)[np.abs((th[:-1] + th[1:]) / 2 - zen) > 40.0]
+        assert far.size == 0 or np.min(far) > 3 * np.max(near), zen
+    # beyond the last node: centred on it (deep night)
+    assert g.for_sun(150.0).sun_zenith == 120.0
+
+
+def test_scene_grid_widens_for_observers_above_the_atmosphere():
+    """From space the line of sight reaches air whose own sun is up to arccos(R/r) farther
+    away: the band widens by that dip and the node count grows in proportion, so the
+    spacing at the sun stays that of the ground's grid."""
+    g = ac.MULTIPLE_SCATTERING_GRID
+    wide = g.for_sun(80.0, 22.0)
+    assert wide.sun_width == pytest.approx(g.sun_width + 22.0)
+    assert wide.n_sun == int(np.ceil(g.n_sun * wide.sun_width / g.sun_width))
+    th = np.degrees(wide.sun_zenith_nodes())
+    mid = (th[:-1] + th[1:]) / 2
+    assert np.max(np.diff(th)[np.abs(mid - 80.0) < 20.0]) <= 3.0
+    # specialising twice changes nothing; a grid over every sun ignores the sun
+    assert wide.for_sun(10.0, 5.0) is wide
+    assert ac.TABLE_MULTIPLE_SCATTERING_GRID.for_sun(30.0) is ac.TABLE_MULTIPLE_SCATTERING_GRID
+    # the observer's dip: 0 inside the atmosphere, arccos(R/r) rounded up above it
+    from atmoscatter.sky import _quadrature as qd
+    from atmoscatter.sky import multiple as M
+
+    atm = qd.prepare_atmosphere(_atm())
+    s = _dir(60.0, 180.0)
+    assert M._sun_centre(atm, s, 0.0) == (pytest.approx(60.0), 0.0)
+    assert M._sun_centre(atm, s, 60e3)[1] == 0.0  # at the top: inside
+    R = atm.planet_radius
+    dip = np.degrees(np.arccos(R / (R + 500e3)))
+    assert M._sun_centre(atm, s, 500e3)[1] == np.ceil(dip)
+
+
+def test_scene_grid_without_a_sun_has_no_nodes():
+    with pytest.raises(ValueError, match="for_sun") as err:
+        ac.MULTIPLE_SCATTERING_GRID.sun_zenith_nodes()
+    assert "\n" not in str(err.value)
+
+
+def test_each_sun_has_its_own_field_and_one_answer(monkeypatch):
+    """With a grid centred on the sun, a direction's value depends on its own sun only:
+    the same sun gives the same values whatever else is in the call (a second sun in
+    between builds its own field and changes nothing of the first)."""
+    monkeypatch.setenv("ATMOSCATTER_CACHE_DIR", "off")
+    g = MultipleScatteringGrid(n_altitude=8, n_sun=8, n_mu=8, n_phi=5, sun_nodes="scene")
+    atm = _atm()
+    a = multiple_scattering(atm, _V, _S, grid=g, orders=4)
+    multiple_scattering(atm, _V[:2], _dir(80.0, 180.0), grid=g, orders=4)
+    b = multiple_scattering(atm, np.concatenate([_V[::-1], _V]), _S, grid=g, orders=4)
+    np.testing.assert_allclose(b[len(_V):], a, rtol=1e-12)
+    np.testing.assert_allclose(b[: len(_V)][::-1], a, rtol=1e-12)
 
 
 def test_single_method_sets_order_one_only():

@@ -6,12 +6,19 @@ multiple_scattering
     Sky radiance per unit extraterrestrial solar irradiance [sr⁻¹] including ``orders``
     orders of scattering (``orders=1`` is :func:`atmoscatter.single_scattering`).
 MULTIPLE_SCATTERING_GRID
-    The default grid of the precomputed radiance field (documents its resolution).
+    The default grid of the precomputed radiance field (documents its resolution); its
+    solar-zenith nodes centre on the call's own sun, so each sun has its own field.
 ACCURATE_MULTIPLE_SCATTERING_GRID
-    A finer grid, two to three times the first-call cost, for about 1 % of the total at low
-    sun, in haze and across the limb (measured: ``docs/convergence.md``).
+    A finer grid centred on the sun the same way, about twice the first-call cost
+    (measured: ``docs/convergence.md``).
+TABLE_MULTIPLE_SCATTERING_GRID
+    A grid over every sun: one field per atmosphere, for animations and batches over many
+    suns; less accurate than the default for one sky.
 MULTIPLE_SCATTERING_GRIDS
-    Both, by name (``"default"``, ``"accurate"``): what ``Scene.ms_grid`` selects.
+    All three, by name (``"default"``, ``"accurate"``, ``"table"``): what ``Scene.ms_grid``
+    selects.
+MultipleScatteringGrid
+    The grid itself (every resolution knob; :meth:`MultipleScatteringGrid.for_sun`).
 
 Method (successive orders, seed 004's recursion)::
 
@@ -27,11 +34,16 @@ and parallel sun make these four variables sufficient (Bruneton & Neyret 2008 us
 same reduction).  The grid is the design's core; each axis is chosen for where the field
 changes fastest:
 
-* **solar zenith** — nodes dense from about 75° to 110° (the sun near and below the
-  horizon: :meth:`MultipleScatteringGrid.sun_zenith_nodes`), and the source interpolated
-  by a cubic in ``log S`` through the four nearest nodes (:mod:`._ms_gather`).  Below the
-  horizon the field falls by about e per degree; linear interpolation of the values on a
-  9° grid made civil twilight 13× and nautical twilight 90× too bright (issue 10);
+* **solar zenith** — with the default and accurate grids (``sun_nodes="scene"``) the
+  nodes centre on the scene's own sun, a node exactly at its solar zenith and eight times
+  denser within about 12° of it (:meth:`MultipleScatteringGrid.sun_zenith_nodes`): the
+  air an observer sees, and the air that lights it, has a sun within about a ray's length
+  of the observer's own, so a single sky needs nodes there only.  The ``table`` grid
+  (``sun_nodes="all"``) covers every sun instead, dense from about 75° to 110° (the sun
+  near and below the horizon).  Either way the source is interpolated by a cubic in
+  ``log S`` through the four nearest nodes (:mod:`._ms_gather`): below the horizon the
+  field falls by about e per degree, and linear interpolation of the values on a 9° grid
+  made civil twilight 13× and nautical twilight 90× too bright (issue 10);
 * **view zenith** — the source ``S^i = Σ W L^i`` is evaluated at the quadrature nodes
   *and* at the zenith and nadir, so interpolation spans [−1, 1]: before, the zenith cap
   was clamped to the last node (11.4° from the zenith) and read the field toward the sun;
@@ -51,10 +63,13 @@ multiple-scattering part over the observer's sky (257 × 33 nodes; 513 × 65 wit
 more than 12° below the horizon) and interpolate it; a test proves the table gives the small-batch answer within 1 % of the multiple-scattering
 part in every regime where it is used.
 
-The field depends only on the atmosphere, the albedo, the grid and the order setting —
-not on the sun or the observer — so one field serves every scene of an atmosphere.  It is
-kept per process and in the persistent cache (:mod:`atmoscatter.cache`; a new process or a
-Dask worker reads it instead of recomputing; checksummed, written atomically).
+The field depends on the atmosphere, the albedo, the grid and the order setting and, with
+a grid centred on the sun, on the solar zenith at the observer (and, above the atmosphere,
+on how far it sees past the horizon: :meth:`MultipleScatteringGrid.for_sun`) — not on the
+view directions or their number.  With the ``table`` grid one field serves every scene of
+an atmosphere.  Fields are kept per process and in the persistent cache
+(:mod:`atmoscatter.cache`; a new process or a Dask worker reads them instead of
+recomputing; checksummed, written atomically).
 
 The returned radiance is the light scattered by the atmosphere into the view ray (path
 radiance).  For rays that end on the ground the ground's own reflected radiance is *not*
@@ -86,7 +101,7 @@ import os
 import threading
 import warnings
 import weakref
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, fields, replace
 
 import numpy as np
 
@@ -106,7 +121,7 @@ from ._sky_table import _SkyTable
 from .single import TABLE_THRESHOLD, _prepare_inputs, single_scattering
 
 __all__ = ["multiple_scattering", "MULTIPLE_SCATTERING_GRID", "ACCURATE_MULTIPLE_SCATTERING_GRID",
-           "MULTIPLE_SCATTERING_GRIDS", "MultipleScatteringGrid"]
+           "TABLE_MULTIPLE_SCATTERING_GRID", "MULTIPLE_SCATTERING_GRIDS", "MultipleScatteringGrid"]
 
 
 @dataclass(frozen=True)
@@ -152,6 +167,26 @@ class MultipleScatteringGrid:
     high_orders_from : int
         The first order whose field is computed on ``high_orders``, ≥ 2 (its rays gather
         the previous order's source from this grid's table).
+    sun_nodes : {"all", "scene"}
+        ``"all"`` (the dataclass default; the ``table`` grid): the solar-zenith nodes
+        cover every sun, dense near the horizon, so one field serves every scene of an
+        atmosphere (animations, batches over many suns).  ``"scene"`` (the default and
+        accurate grids): the nodes are concentrated at the call's own sun — a node
+        exactly at its solar zenith, ``n_sun`` nodes equidistributed in a density that is
+        ``_SCENE_PEAK`` times higher within about ``sun_width`` of it — so a single sky
+        gets the accuracy of a much larger table for a fraction of its cost; each sun
+        has its own field (cached in the process and on disk like any field).
+        :func:`multiple_scattering` specialises such a grid to its sun
+        (:meth:`for_sun`).
+    sun_zenith : float or None
+        Centre of the nodes of a ``"scene"`` grid: the solar zenith angle [deg] it was
+        specialised to, in [0, ``max_sun_zenith``] (``None``: not yet specialised; must
+        be ``None`` with ``"all"``).
+    sun_width : float
+        Half-width [deg] of the dense band of a ``"scene"`` grid, in (0, 180]: the local
+        solar zenith of the air an observer inside the atmosphere sees, and of the air that
+        lights it, stays within about a ray's length of its own (±8° for Earth's 60 km
+        atmosphere).  Observers above the atmosphere see farther (:meth:`for_sun`).
     """
 
     n_altitude: int = 20
@@ -164,6 +199,9 @@ class MultipleScatteringGrid:
     altitude_refine: int = 4
     high_orders: MultipleScatteringGrid | None = None
     high_orders_from: int = 3
+    sun_nodes: str = "all"
+    sun_zenith: float | None = None
+    sun_width: float = 12.0
 
     def __post_init__(self):
         for name in ("n_altitude", "n_sun", "n_mu", "n_phi", "order", "altitude_refine",
@@ -186,6 +224,27 @@ class MultipleScatteringGrid:
                 "MultipleScatteringGrid.horizon_density must be finite and >= 1, "
                 f"got {self.horizon_density!r}"
             )
+        if self.sun_nodes not in ("all", "scene"):
+            raise ValueError(
+                f"MultipleScatteringGrid.sun_nodes must be 'all' or 'scene', got {self.sun_nodes!r}"
+            )
+        if self.sun_zenith is not None:
+            if self.sun_nodes != "scene":
+                raise ValueError(
+                    "MultipleScatteringGrid.sun_zenith is only for sun_nodes='scene', got "
+                    f"sun_zenith={self.sun_zenith!r} with sun_nodes={self.sun_nodes!r}"
+                )
+            z = self.sun_zenith
+            if (isinstance(z, bool) or not isinstance(z, (int, float, np.floating))
+                    or not (0.0 <= float(z) <= float(self.max_sun_zenith))):
+                raise ValueError(
+                    "MultipleScatteringGrid.sun_zenith must be None or in [0, "
+                    f"max_sun_zenith={self.max_sun_zenith:g}] deg, got {z!r}"
+                )
+        w = self.sun_width
+        if (isinstance(w, bool) or not isinstance(w, (int, float, np.floating))
+                or not (0.0 < float(w) <= 180.0)):
+            raise ValueError(f"MultipleScatteringGrid.sun_width must be in (0, 180] deg, got {w!r}")
         if self.high_orders is not None:
             if not isinstance(self.high_orders, MultipleScatteringGrid):
                 raise TypeError(
@@ -201,7 +260,15 @@ class MultipleScatteringGrid:
         """The grid in words: every knob and its value (and, with ``high_orders``, the
         second grid's), as ``--explain`` prints it."""
         text = ", ".join(f"{f.name} {getattr(self, f.name):g}" for f in fields(self)
-                         if f.name not in ("high_orders", "high_orders_from"))
+                         if f.name not in ("high_orders", "high_orders_from", "sun_nodes",
+                                           "sun_zenith", "sun_width"))
+        if self.sun_nodes == "scene":
+            text += (f"; solar-zenith nodes centred on the scene's sun (±{self.sun_width:g}° "
+                     "band; one field per sun)")
+            if self.sun_zenith is not None:
+                text += f", here at {self.sun_zenith:.6g}°"
+        else:
+            text += "; solar-zenith nodes for every sun (one field per atmosphere)"
         if self.high_orders is not None:
             text += f"; orders ≥ {self.high_orders_from} on ({self.high_orders.describe()})"
         return text
@@ -209,31 +276,115 @@ class MultipleScatteringGrid:
     def sun_zenith_nodes(self) -> np.ndarray:
         """Solar zenith nodes [rad], increasing, from 0 to ``max_sun_zenith``.
 
-        Equidistributed in the node density ``1 + (horizon_density − 1)
-        exp(−((θ − 92°)/16°)²)``: with the defaults 8.4° apart at the zenith, 1.4–2.2°
-        from 80° to 104° (sun 14° below the horizon), 2.5–4° to 110°.
+        ``sun_nodes="all"``: equidistributed in the node density ``1 + (horizon_density −
+        1) exp(−((θ − 92°)/16°)²)``: with the dataclass defaults 8.4° apart at the zenith,
+        1.4–2.2° from 80° to 104° (sun 14° below the horizon), 2.5–4° to 110°.
+
+        ``sun_nodes="scene"``: equidistributed in ``1 + (_SCENE_PEAK − 1) exp(−((θ −
+        θ₀)/w)²)`` with ``θ₀ = sun_zenith`` and ``w = sun_width``, on each side of ``θ₀``
+        so that ``θ₀`` is a node (the observer's own solar zenith is read without
+        interpolation; a sun within half a spacing of 0 or ``max_sun_zenith`` is read at
+        that end's node); with 16 nodes and ``w = 12°`` they are 2.1–2.9° apart within
+        6° of the sun and 13–18° apart far from it.
+
+        Raises
+        ------
+        ValueError
+            For a ``"scene"`` grid not specialised to a sun (:meth:`for_sun`).
         """
-        th = np.linspace(0.0, float(self.max_sun_zenith), 4001)
-        dens = 1.0 + (float(self.horizon_density) - 1.0) * np.exp(-(((th - _SUN_CENTRE) / _SUN_WIDTH) ** 2))
+        top = float(self.max_sun_zenith)
+        th = np.linspace(0.0, top, 8001)
+        if self.sun_nodes == "scene":
+            if self.sun_zenith is None:
+                raise ValueError(
+                    "a MultipleScatteringGrid with sun_nodes='scene' has no nodes until it is "
+                    "specialised to a sun: use grid.for_sun(sun_zenith_deg) (multiple_scattering "
+                    "does this for its sun)"
+                )
+            centre, width, peak = float(self.sun_zenith), float(self.sun_width), _SCENE_PEAK
+        else:
+            centre, width, peak = _SUN_CENTRE, _SUN_WIDTH, float(self.horizon_density)
+        dens = 1.0 + (peak - 1.0) * np.exp(-(((th - centre) / width) ** 2))
         cdf = np.concatenate([[0.0], np.cumsum(0.5 * (dens[1:] + dens[:-1]) * np.diff(th))])
-        nodes = np.interp(np.linspace(0.0, cdf[-1], self.n_sun), cdf, th)
-        nodes[0], nodes[-1] = 0.0, float(self.max_sun_zenith)
+        n, total = self.n_sun, cdf[-1]
+        nodes = np.interp(np.linspace(0.0, total, n), cdf, th)
+        if self.sun_nodes == "scene":
+            # equidistributed on each side of the sun, so that it is a node: ``k`` nodes
+            # below it, as many as its share of the density (a sun within half a spacing
+            # of an end is read at that end's node)
+            c = float(np.interp(centre, th, cdf))
+            k = int(round((n - 1) * c / total))
+            if 0 < k < n - 1:
+                left = np.interp(np.linspace(0.0, c, k + 1), cdf, th)
+                right = np.interp(np.linspace(c, total, n - k), cdf, th)
+                nodes = np.concatenate([left[:-1], [centre], right[1:]])
+        nodes[0], nodes[-1] = 0.0, top
         return np.radians(nodes)
 
+    def for_sun(self, sun_zenith: float, observer_dip: float = 0.0) -> MultipleScatteringGrid:
+        """This grid specialised to one sun (``sun_nodes="scene"``; others: unchanged).
 
-MULTIPLE_SCATTERING_GRID = MultipleScatteringGrid()
-"""Default grid (chosen from the error-against-run-time study in ``docs/convergence.md``)."""
+        Parameters
+        ----------
+        sun_zenith : float
+            Solar zenith angle at the observer [deg]; beyond ``max_sun_zenith`` the nodes
+            centre on ``max_sun_zenith`` (deep night).
+        observer_dip : float
+            Angle [deg] ≥ 0 between the observer's vertical and the vertical where its
+            line of sight grazes the planet (``arccos(R/r)`` of an observer above the
+            atmosphere, 0 inside it).  An observer in space sees air whose own sun is up to
+            this much farther from its own: the dense band widens by it and the node count
+            grows in proportion (``ceil(n_sun (w + dip)/w)``), keeping the spacing.
 
-ACCURATE_MULTIPLE_SCATTERING_GRID = MultipleScatteringGrid(n_altitude=28, n_sun=40, n_mu=32)
-"""A finer grid for about 1 % of the total radiance at low sun, in haze and across the limb
-(``grid=ACCURATE_MULTIPLE_SCATTERING_GRID``): finer in altitude (the horizon band of hazy
-skies), view zenith (the zenith cap, the limb) and solar zenith (twilight); two to three
-times the default's first-call cost.  Its error against a grid refined beyond it, next to the
-default's, is measured by ``benchmarks/ms_accurate_grid.py``
+        Returns
+        -------
+        MultipleScatteringGrid
+            With ``sun_zenith`` (and, for ``observer_dip > 0``, ``sun_width`` and
+            ``n_sun``) set; a grid already specialised is returned as it is.
+        """
+        if self.sun_nodes != "scene" or self.sun_zenith is not None:
+            return self
+        z = float(sun_zenith)
+        dip = float(observer_dip)
+        if not (np.isfinite(z) and np.isfinite(dip) and dip >= 0.0):
+            raise ValueError(
+                f"for_sun needs a finite sun_zenith and an observer_dip >= 0 [deg], got "
+                f"sun_zenith={sun_zenith!r}, observer_dip={observer_dip!r}"
+            )
+        z = min(max(z, 0.0), float(self.max_sun_zenith))
+        high = self.high_orders
+        if high is not None:
+            high = high.for_sun(z, dip)
+        if dip <= 0.0:
+            return replace(self, sun_zenith=z, high_orders=high)
+        width = min(float(self.sun_width) + dip, 180.0)
+        n = int(np.ceil(self.n_sun * width / float(self.sun_width)))
+        return replace(self, sun_zenith=z, sun_width=width, n_sun=n, high_orders=high)
+
+
+MULTIPLE_SCATTERING_GRID = MultipleScatteringGrid(n_altitude=32, n_sun=16, n_mu=32,
+                                                  sun_nodes="scene")
+"""Default grid: solar-zenith nodes centred on the scene's sun (one field per sun), finer in
+altitude (haze) and view zenith (the zenith cap, the limb) than :data:`TABLE_MULTIPLE_SCATTERING_GRID`
+for about the same first call; chosen from the error-against-run-time study and measured
+against a grid finer in every knob (``docs/convergence.md``)."""
+
+ACCURATE_MULTIPLE_SCATTERING_GRID = MultipleScatteringGrid(n_altitude=32, n_sun=24, n_mu=36,
+                                                           n_phi=21, sun_nodes="scene")
+"""A finer grid (``grid=ACCURATE_MULTIPLE_SCATTERING_GRID``, ``ms_grid=accurate``), centred on
+the scene's sun like the default, for about twice its first call; its error against a grid
+refined beyond it, next to the default's, is measured by ``benchmarks/ms_accurate_grid.py``
 (``docs/convergence/ms_accurate_grid.md``)."""
 
+TABLE_MULTIPLE_SCATTERING_GRID = MultipleScatteringGrid()
+"""A grid over every sun (``sun_nodes="all"``, ``ms_grid=table``): one field serves every scene
+of an atmosphere, so animations and batches over many suns build it once; less accurate than
+the default for one sky (measured in ``docs/convergence.md``).  It was the default grid
+until the default followed the scene's sun (CHANGELOG)."""
+
 MULTIPLE_SCATTERING_GRIDS = {"default": MULTIPLE_SCATTERING_GRID,
-                             "accurate": ACCURATE_MULTIPLE_SCATTERING_GRID}
+                             "accurate": ACCURATE_MULTIPLE_SCATTERING_GRID,
+                             "table": TABLE_MULTIPLE_SCATTERING_GRID}
 """The named grids, by the name a scene gives (``Scene.ms_grid``, ``--set ms_grid=…``);
 the EXR header quotes each one's measured error (``atmoscatter/data/ms_accuracy.json``)."""
 
@@ -254,6 +405,8 @@ _MS_TABLE_NODES_DEEP_TWILIGHT = (513, 65)
 _DEEP_TWILIGHT_ELEVATION = -12.0  # [deg]
 
 _SUN_CENTRE, _SUN_WIDTH = 92.0, 16.0
+#: node density at the sun of a ``sun_nodes="scene"`` grid relative to far from it [-]
+_SCENE_PEAK = 8.0
 _HORIZON_SPLIT = True  # μ quadrature split at each altitude's horizon (see _Field)  # [deg] where the solar-zenith nodes are densest
 _CACHE: dict = {}
 _CACHE_LOCK = threading.Lock()
@@ -1261,6 +1414,10 @@ def _field_for(atm_obj, atm, grid, albedo, orders, tol=None):
                 S_sum, n, tail = st.converged_sum(tol, _MAX_AUTO_ORDERS)
             else:
                 S_sum, n, tail = st.source_sum(orders), orders, 0.0
+            if grid.sun_nodes == "scene":
+                # a field of one sun is rarely extended: its kept node rays (the bulk of
+                # the state's memory) go, and are marched again if more orders are asked
+                st.marches.clear()
         return {"S_sum": S_sum, "orders": np.array(n), "tail": np.array(tail)}
 
     if key is None:
@@ -1291,6 +1448,19 @@ def _field_for(atm_obj, atm, grid, albedo, orders, tol=None):
     if logS is None:
         logS = _gather_table(field, res["S_sum"])
     return field, res["S_sum"], logS, key
+
+
+def _sun_centre(atm: qd.PreparedAtmosphere, s: np.ndarray, alt: float) -> tuple[float, float]:
+    """``(sun zenith, observer dip)`` [deg] that a ``sun_nodes="scene"`` grid centres on:
+    the solar zenith at the observer and, above the atmosphere, the angle ``arccos(R/r)``
+    to where its lines of sight graze the planet, rounded up to a whole degree (so nearby
+    altitudes share one field)."""
+    zenith = float(np.degrees(np.arccos(np.clip(s[2], -1.0, 1.0))))
+    r0 = atm.planet_radius + float(alt)
+    dip = 0.0
+    if r0 > atm.top_radius:
+        dip = float(np.ceil(np.degrees(np.arccos(atm.planet_radius / r0)) - 1e-9))
+    return zenith, dip
 
 
 def multiple_scattering(
@@ -1382,6 +1552,7 @@ def multiple_scattering(
     )
     if not atm.scatterers:
         return single
+    grid = grid.for_sun(*_sun_centre(atm, s, alt))
     field, S_sum, logS, fkey = _field_for(atmosphere, atm, grid, albedo, n_orders, tol)
     vf = v.reshape(-1, 3)
     fin = finite.reshape(-1)
