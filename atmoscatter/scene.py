@@ -109,9 +109,11 @@ class Scene:
     ms_grid : str or None
         Field grid of ``multiple_scattering``, a key of
         :data:`atmoscatter.MULTIPLE_SCATTERING_GRIDS`: ``default`` (``None`` means this)
-        or ``accurate`` (about 1 % of the total down to sun −12° where the default misses
-        it — haze, twilight, the limb — for two to three times the first call; the measured
-        figures per regime are in ``docs/convergence.md``).  The EXR header quotes the measured error of the grid
+        and ``accurate`` centre their solar-zenith nodes on the scene's sun (one field per
+        sun; ``accurate`` is finer, for about twice the first call); ``table`` covers every
+        sun with one field per atmosphere (for animations and batches over many suns,
+        less accurate per sky).  The measured figures per regime are in
+        ``docs/convergence.md``; the EXR header quotes the measured error of the grid
         used.  Any other model with a grid set is an error.
     sampling : str
         ``rgb`` (the atmosphere's three sample wavelengths 680/550/440 nm),
