@@ -56,7 +56,7 @@ def _check_regimes(acc):
     assert ground["max_rel_total"] == pytest.approx(worst_sun, rel=1e-12)
 
 
-@pytest.mark.parametrize("grid", ["default", "accurate"])
+@pytest.mark.parametrize("grid", ["default", "accurate", "table"])
 def test_measurement_is_of_the_installed_method(grid):
     """Fails when the method or a named grid changed since the measurement was run (the
     header would then flag its figures): rerun ``benchmarks/ms_accurate_grid.py``."""
@@ -65,23 +65,37 @@ def test_measurement_is_of_the_installed_method(grid):
     assert _ms_accuracy_current(_load(), grid)
     assert "CAUTION" not in _header_text(_ms_scene(ms_grid=grid))
     assert not _ms_accuracy_current({**_load(), "field_version": -1}, grid)
-    other = {"default": "accurate", "accurate": "default"}[grid]
+    other = {"default": "accurate", "accurate": "default", "table": "default"}[grid]
     wrong = {**_load(), "grids": {grid: _load()["grids"][other]}}
     assert not _ms_accuracy_current(wrong, grid)
 
 
-def test_the_accurate_grid_is_measured_no_worse_than_the_default():
-    """The reason the accurate grid exists: per regime (sun down to −12°, every observer),
-    its measured error is not above the default's."""
+#: issue 10's bounds per regime: (total, multiple-scattering part); deep twilight (below
+#: −12°) has none — its error is measured and published
+_BOUNDS = {"above_10": (0.01, 0.03), "0_to_10": (0.01, 0.03), "0_to_-6": (0.01, 0.03),
+           "-6_to_-12": (0.03, None), "elevated": (0.01, 0.03), "space": (0.01, 0.03)}
+
+
+def test_the_accurate_grid_meets_the_bounds_and_is_better_where_the_default_is_not():
+    """The reason the accurate grid exists: measured against the finer reference
+    (``benchmarks/ms_accurate_grid.py``), it is within issue 10's bounds in every regime
+    down to sun −12° and for every observer, and wherever the default grid is at or above a
+    bound the accurate grid is below the default.  (Where both are well inside a bound the
+    order of the two is not asserted: in daylight the reference is coarser in solar zenith
+    at the sun than grids centred on it, so small figures differ by the reference's own
+    discretisation — ``mc.REFERENCE_NOTE``.)"""
     acc = _load()["grids"]
     for group in ("sun_regimes_ground_observer", "observer_regimes"):
-        for key in acc["default"][group]:
-            if key == "below_-12" or (group == "observer_regimes" and key == "ground"):
-                continue  # deep twilight: large on both, published, not a bound
+        for key, bounds in _BOUNDS.items():
+            if key not in acc["accurate"][group]:
+                continue
             d, a = acc["default"][group][key], acc["accurate"][group][key]
-            # 12 km: both ~0.1 %, within the reference's own uncertainty of each other
-            slack = 1.5e-3 if key == "elevated" else 0.0
-            assert a["max_rel_total"] <= d["max_rel_total"] + slack, (group, key)
+            for part, bound in zip(("max_rel_total", "max_rel_ms"), bounds):
+                if bound is None:
+                    continue
+                assert a[part] < bound, (group, key, part, a[part])
+                if d[part] >= 0.9 * bound:
+                    assert a[part] < d[part], (group, key, part, a[part], d[part])
 
 
 def _ms_scene(**kw):
@@ -143,6 +157,7 @@ def test_scene_grid_reaches_the_model_and_the_plan(monkeypatch):
     register_model(physical_adapter("multiple_scattering"), replace=True)
     try:
         for name, grid in (("accurate", ac.ACCURATE_MULTIPLE_SCATTERING_GRID),
+                           ("table", ac.TABLE_MULTIPLE_SCATTERING_GRID),
                            (None, ac.MULTIPLE_SCATTERING_GRID)):
             seen.clear()
             s = _ms_scene(ms_grid=name)
@@ -156,7 +171,7 @@ def test_scene_grid_reaches_the_model_and_the_plan(monkeypatch):
 
 
 def test_scene_grid_bad_values_are_one_line_errors():
-    with pytest.raises(ValueError, match=r"ms_grid='fine' is not valid; choose one of \['accurate', 'default'\]"):
+    with pytest.raises(ValueError, match=r"ms_grid='fine' is not valid; choose one of \['accurate', 'default', 'table'\]"):
         _ms_scene(ms_grid="fine")
     with pytest.raises(ValueError, match="ms_grid='accurate' only applies to model='multiple_scattering'"):
         Scene(model="preetham", ms_grid="accurate")
@@ -250,7 +265,7 @@ def test_ms_accurate_grid_quick_writes_the_header_figures(tmp_path):
                     "--out", str(tmp_path)], check=True, env=env, capture_output=True, timeout=300)
     assert (tmp_path / "ms_accurate_grid.md").stat().st_size > 0
     js = json.loads((tmp_path / "ms_accuracy.json").read_text())
-    assert set(js["grids"]) == {"default", "accurate"}
+    assert set(js["grids"]) == {"default", "accurate", "table"}
     for g in js["grids"].values():
         assert set(g["sun_regimes_ground_observer"]) == {"above_10", "0_to_-6"}
         assert set(g["observer_regimes"]) == {"ground"}
