@@ -90,7 +90,7 @@ def test_the_accurate_grid_meets_the_bounds_and_is_better_where_the_default_is_n
             if key not in acc["accurate"][group]:
                 continue
             d, a = acc["default"][group][key], acc["accurate"][group][key]
-            for part, bound in zip(("max_rel_total", "max_rel_ms"), bounds):
+            for part, bound in zip(("max_rel_total", "max_rel_ms"), bounds, strict=True):
                 if bound is None:
                     continue
                 assert a[part] < bound, (group, key, part, a[part])
