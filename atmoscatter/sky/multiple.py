@@ -355,9 +355,7 @@ class MultipleScatteringGrid:
         high = self.high_orders
         if high is not None:
             high = high.for_sun(z, dip)
-        if dip <= 0.0:
-            return replace(self, sun_zenith=z, high_orders=high)
-        width = min(float(self.sun_width) + dip, 180.0)
+        width = min(float(self.sun_width) + dip, 180.0)  # dip 0: the width and n_sun stay
         n = int(np.ceil(self.n_sun * width / float(self.sun_width)))
         return replace(self, sun_zenith=z, sun_width=width, n_sun=n, high_orders=high)
 
