@@ -91,12 +91,28 @@ DEFAULT = (ms.MULTIPLE_SCATTERING_GRID, ms.DEFAULT_ORDER_TOLERANCE)
 #: finer than every named grid in every knob but the solar zenith in daylight (see
 #: REFERENCE_NOTE), and than every value of the sweep: shared with ``ms_accurate_grid.py``
 REFERENCE = (MultipleScatteringGrid(n_altitude=36, n_sun=64, n_mu=40, n_phi=25, order=4), 1e-5)
-#: what the reference is finer in: its solar-zenith nodes cover every sun, 0.7–1.3° apart
-#: from 79° to 104° but 4.1° apart in daylight (below 50°), where the grids centred on the sun
-#: are 2.1–2.9° apart at the sun (the n_sun sweep shows what that knob moves)
-REFERENCE_NOTE = ("finer than every named grid in altitude, view zenith, azimuth and Gauss "
-                  "order; in solar zenith finer at twilight, but 4.1° apart in daylight "
-                  "where the grids centred on the sun are 2.1–2.9° apart at it")
+def _reference_note(reference=REFERENCE[0], grids=(ms.MULTIPLE_SCATTERING_GRID,
+                                                   ms.ACCURATE_MULTIPLE_SCATTERING_GRID)) -> str:
+    """What the reference is finer in, with the solar-zenith spacings computed from the
+    grids: the reference's nodes cover every sun, dense at twilight but sparse in daylight
+    (solar zenith below 50°), where the grids centred on the sun are denser at it (the
+    spacings within 6° of suns 5–60° high; the n_sun sweep shows what that knob moves)."""
+    ref = np.degrees(reference.sun_zenith_nodes())
+    mid = 0.5 * (ref[1:] + ref[:-1])
+    ref_day = float(np.max(np.diff(ref)[mid < 50.0]))
+    near = []
+    for g in grids:
+        for zenith in (30.0, 45.0, 60.0, 70.0, 85.0):
+            n = np.degrees(g.for_sun(zenith).sun_zenith_nodes())
+            m = 0.5 * (n[1:] + n[:-1])
+            near.extend(np.diff(n)[np.abs(m - zenith) < 6.0])
+    return ("finer than every named grid in altitude, view zenith, azimuth and Gauss "
+            f"order; in solar zenith finer at twilight, but {ref_day:.2g}° apart in daylight "
+            f"where the grids centred on the sun are {min(near):.2g}–{max(near):.2g}° apart "
+            "at it")
+
+
+REFERENCE_NOTE = _reference_note()
 #: the reference radiances of the full run's scenes, kept between runs (the reference
 #: does not depend on the grids measured against it; about 30 minutes of builds): a run
 #: reuses them while the method (field version), the reference grid, the atmospheres and
