@@ -410,6 +410,8 @@ def _grid_text(cfg):
     text = knobs(g)
     if g.sun_nodes == "scene":
         text += f", solar zenith centred on the sun (±{g.sun_width:g}°)"
+        if g.band_orders_from is not None:
+            text += f", orders ≥ {g.band_orders_from} in the band when the sun is up"
     if g.high_orders is not None:
         text += f" (orders ≥ {g.high_orders_from}: {knobs(g.high_orders)})"
     return f"{text}, order_tolerance {tol:g}"

@@ -6,6 +6,8 @@ interface, limits and invariants that must hold exactly or by construction.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -267,7 +269,9 @@ def test_large_batches_give_the_answer_of_small_ones(monkeypatch, turbidity, sun
      ({"sun_zenith": 30.0}, "sun_zenith is only for sun_nodes='scene'"),
      ({"sun_nodes": "scene", "sun_zenith": 130.0}, r"sun_zenith must be None or in \[0, "),
      ({"sun_width": 0.0}, r"sun_width must be in \(0, 180\]"),
-     ({"high_orders_from": 1}, "high_orders_from must be an integer >= 2")],
+     ({"high_orders_from": 1}, "high_orders_from must be an integer >= 2"),
+     ({"band_orders_from": 2}, "band_orders_from must be None or an integer >= 3"),
+     ({"band_orders_from": True}, "band_orders_from must be None or an integer >= 3")],
 )
 def test_bad_grid_is_a_one_line_error(kwargs, match):
     with pytest.raises(ValueError, match=match) as err:
@@ -757,6 +761,59 @@ def test_scene_grid_widens_for_observers_above_the_atmosphere():
     R = atm.planet_radius
     dip = np.degrees(np.arccos(R / (R + 500e3)))
     assert M._sun_centre(atm, s, 500e3)[1] == np.ceil(dip)
+
+
+def test_band_of_a_scene_grid_is_the_sun_band_and_only_in_daylight_inside_the_atmosphere():
+    """``band_orders_from``: orders from it on are computed at the nodes within
+    ``sun_width`` of the sun and one beyond on each side; for_sun switches it off for a
+    sun below the horizon and for observers above the atmosphere (where the light comes
+    from far outside the band), and a grid over every sun has no band."""
+    from atmoscatter.sky import _quadrature as qd
+    from atmoscatter.sky import multiple as M
+
+    g = ac.MULTIPLE_SCATTERING_GRID
+    assert g.band_orders_from == 3
+    atm = qd.prepare_atmosphere(_atm())
+    for zen in (0.0, 30.0, 60.0, 89.0, 90.0):
+        f = M._Field(atm, g.for_sun(zen))
+        th = np.degrees(f.ths)
+        band = f.band
+        assert band is not None and np.all(np.diff(band) == 1), zen
+        inside = np.flatnonzero(np.abs(th - zen) <= g.sun_width)
+        assert band[0] == max(inside[0] - 1, 0) and band[-1] == inside[-1] + 1, zen
+        assert band.size < th.size, zen
+    for zen, dip in ((91.0, 0.0), (96.0, 0.0), (30.0, 22.0)):
+        assert g.for_sun(zen, dip).band_orders_from is None
+        assert M._Field(atm, g.for_sun(zen, dip)).band is None
+    assert M._Field(atm, replace(ac.TABLE_MULTIPLE_SCATTERING_GRID, band_orders_from=3)).band is None
+    assert "only in the band" in g.for_sun(30.0).describe()
+    assert "only in the band" not in g.for_sun(96.0).describe()
+
+
+@pytest.mark.parametrize("turbidity", [1.5, 10.0])
+@pytest.mark.parametrize("sun_zenith", [30.0, 85.0])
+def test_band_orders_give_the_answer_of_every_node(monkeypatch, turbidity, sun_zenith):
+    """One answer: the band (orders ≥ 3 only near the sun, convergence judged there) gives
+    the values of the same grid computing every order at every node, on the ground and at
+    12 km, with automatic and fixed orders.  Bound: the summation's own accuracy, the
+    default ``order_tolerance`` (1e-3 of the multiple-scattering part), times 3 for the
+    two stops of the automatic sum (each within it) and the extrapolated nodes outside
+    the band, which the band's edge nodes read."""
+    monkeypatch.setenv("ATMOSCATTER_CACHE_DIR", "off")
+    atm = ac.earth_turbidity_atmosphere(turbidity)
+    band = MultipleScatteringGrid(n_altitude=16, n_sun=12, n_mu=12, n_phi=9, sun_nodes="scene",
+                                  band_orders_from=3)
+    full = replace(band, band_orders_from=None)
+    s = _dir(sun_zenith, 180.0)
+    v = _V[:4]  # above the horizontal (the last direction sees the black ground)
+    for alt in (0.0, 12e3):
+        ss = ac.single_scattering(atm, v, s, altitude=alt)
+        for orders in (None, 8):
+            a = multiple_scattering(atm, v, s, altitude=alt, grid=band, orders=orders)
+            b = multiple_scattering(atm, v, s, altitude=alt, grid=full, orders=orders)
+            assert np.all(np.isfinite(a)) and np.all(a > 0)
+            ms_part = b - ss
+            assert np.max(np.abs(a - b) / ms_part) <= 3e-3, (alt, orders)
 
 
 def test_scene_grid_without_a_sun_has_no_nodes():

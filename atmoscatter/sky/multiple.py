@@ -187,6 +187,21 @@ class MultipleScatteringGrid:
         solar zenith of the air an observer inside the atmosphere sees, and of the air that
         lights it, stays within about a ray's length of its own (±8° for Earth's 60 km
         atmosphere).  Observers above the atmosphere see farther (:meth:`for_sun`).
+    band_orders_from : int or None
+        ``None`` (the dataclass default): every order at every node.  An integer ``K`` ≥ 3
+        (the default grid: 3), for a ``"scene"`` grid with the sun at or above the
+        horizon (``sun_zenith`` ≤ 90°), the observer inside the atmosphere and no
+        ``high_orders``: orders ``K`` and later are computed only at the solar-zenith
+        nodes within ``sun_width`` of the sun and one node beyond on each side (the
+        band; the scene's rays read nothing outside it); elsewhere each order is the
+        previous one times its cell's decay per order (capped at the band's), and the
+        summation stops when the band has converged (:meth:`_FieldState.converged_sum`).
+        In daylight the air far from the band feeds the band's high orders with light
+        that changes little from order to order: the default grid's measured errors are
+        unchanged to the digits of the study's tables (``docs/convergence.md``), for a
+        shorter first call (``benchmarks/bench_multiple.py``).  In twilight the sunlit
+        nodes outside the band light the band and must be computed (there, and for
+        observers above the atmosphere, :meth:`for_sun` switches it off).
     """
 
     n_altitude: int = 20
@@ -202,6 +217,7 @@ class MultipleScatteringGrid:
     sun_nodes: str = "all"
     sun_zenith: float | None = None
     sun_width: float = 12.0
+    band_orders_from: int | None = None
 
     def __post_init__(self):
         for name in ("n_altitude", "n_sun", "n_mu", "n_phi", "order", "altitude_refine",
@@ -241,6 +257,11 @@ class MultipleScatteringGrid:
                     "MultipleScatteringGrid.sun_zenith must be None or in [0, "
                     f"max_sun_zenith={self.max_sun_zenith:g}] deg, got {z!r}"
                 )
+        b = self.band_orders_from
+        if b is not None and (isinstance(b, bool) or not isinstance(b, (int, np.integer)) or b < 3):
+            raise ValueError(
+                f"MultipleScatteringGrid.band_orders_from must be None or an integer >= 3, got {b!r}"
+            )
         w = self.sun_width
         if (isinstance(w, bool) or not isinstance(w, (int, float, np.floating))
                 or not (0.0 < float(w) <= 180.0)):
@@ -261,12 +282,14 @@ class MultipleScatteringGrid:
         second grid's), as ``--explain`` prints it."""
         text = ", ".join(f"{f.name} {getattr(self, f.name):g}" for f in fields(self)
                          if f.name not in ("high_orders", "high_orders_from", "sun_nodes",
-                                           "sun_zenith", "sun_width"))
+                                           "sun_zenith", "sun_width", "band_orders_from"))
         if self.sun_nodes == "scene":
             text += (f"; solar-zenith nodes centred on the scene's sun (±{self.sun_width:g}° "
                      "band; one field per sun)")
             if self.sun_zenith is not None:
                 text += f", here at {self.sun_zenith:.6g}°"
+            if self.band_orders_from is not None:
+                text += f"; orders ≥ {self.band_orders_from} only in the band (sun up, observer in the atmosphere)"
         else:
             text += "; solar-zenith nodes for every sun (one field per atmosphere)"
         if self.high_orders is not None:
@@ -340,7 +363,9 @@ class MultipleScatteringGrid:
         -------
         MultipleScatteringGrid
             With ``sun_zenith`` (and, for ``observer_dip > 0``, ``sun_width`` and
-            ``n_sun``) set; a grid already specialised is returned as it is.
+            ``n_sun``) set, and ``band_orders_from`` switched off (``None``) for a sun
+            below the horizon (``sun_zenith`` > 90°) or ``observer_dip > 0``; a grid
+            already specialised is returned as it is.
         """
         if self.sun_nodes != "scene" or self.sun_zenith is not None:
             return self
@@ -357,14 +382,18 @@ class MultipleScatteringGrid:
             high = high.for_sun(z, dip)
         width = min(float(self.sun_width) + dip, 180.0)  # dip 0: the width and n_sun stay
         n = int(np.ceil(self.n_sun * width / float(self.sun_width)))
-        return replace(self, sun_zenith=z, sun_width=width, n_sun=n, high_orders=high)
+        band = self.band_orders_from if (z <= 90.0 and dip == 0.0) else None
+        return replace(self, sun_zenith=z, sun_width=width, n_sun=n, high_orders=high,
+                       band_orders_from=band)
 
 
 MULTIPLE_SCATTERING_GRID = MultipleScatteringGrid(n_altitude=32, n_sun=16, n_mu=32,
-                                                  sun_nodes="scene")
+                                                  sun_nodes="scene", band_orders_from=3)
 """Default grid: solar-zenith nodes centred on the scene's sun (one field per sun), finer in
 altitude (haze) and view zenith (the zenith cap, the limb) than :data:`TABLE_MULTIPLE_SCATTERING_GRID`
-for about the same first call; chosen from the error-against-run-time study and measured
+for about the same first call; with the sun up and the observer inside the atmosphere,
+orders from the third on are computed only in the band of nodes around the sun
+(``band_orders_from``); chosen from the error-against-run-time study and measured
 against a grid finer in every knob (``docs/convergence.md``)."""
 
 ACCURATE_MULTIPLE_SCATTERING_GRID = MultipleScatteringGrid(n_altitude=32, n_sun=24, n_mu=36,
@@ -722,6 +751,20 @@ class _Field:
         t = np.arange(r) / r
         self.h_fine = np.concatenate([(h[:-1, None] + t * np.diff(h)[:, None]).ravel(), h[-1:]])
         self.shape_fine = (self.h_fine.size,) + self.shape_out[1:]
+        self.band = self._band_nodes()
+
+    def _band_nodes(self):
+        """Indices of the solar-zenith nodes where orders ≥ ``grid.band_orders_from`` are
+        computed (within ``sun_width`` of the sun, and one node beyond on each side), or
+        ``None``: every node (see :class:`MultipleScatteringGrid`)."""
+        g = self.grid
+        if (g.band_orders_from is None or g.sun_nodes != "scene" or g.sun_zenith is None
+                or g.sun_zenith > 90.0 or g.high_orders is not None):
+            return None
+        th = np.degrees(self.ths)
+        inside = np.flatnonzero(np.abs(th - g.sun_zenith) <= g.sun_width)
+        lo, hi = max(int(inside[0]) - 1, 0), min(int(inside[-1]) + 1, th.size - 1)
+        return None if (lo == 0 and hi == th.size - 1) else np.arange(lo, hi + 1)
 
     def directions(self, mu=None) -> np.ndarray:
         """Directions (μ-major, φ-minor) in a frame with the sun in the x–z plane."""
@@ -970,6 +1013,7 @@ class _FieldState:
         views.clear()  # the packed weights live on in the kept marches
         self.W = field.phase_matrices()  # (n_alt, nsc, n_out, ndir)
         self.L = L  # field of the highest order computed so far
+        self._L_prev = None  # the order before it
         self.L_field = field  # the grid it lives on
         self.S: list[np.ndarray] = []  # S^1, S^2, ... (S^k on high_orders for k ≥ K)
         self.high = None  # _HighOrders, made when the first high order is asked for
@@ -1017,9 +1061,29 @@ class _FieldState:
                 path += np.where(mc.ground[:, None], mc.t_end * self.albedo / np.pi * e, 0.0)
             Lnew[i, j] = path.reshape(n_mu, n_phi, -1)
 
-        _run_cells(cell, [(i, j) for i in range(f.shape[0]) for j in range(f.shape[1])],
-                   f"multiple scattering: order {len(self.S) + 1}")
+        k = len(self.S) + 1  # the order computed
+        band = f.band if (f.band is not None and k >= f.grid.band_orders_from) else None
+        cols = range(f.shape[1]) if band is None else band
+        _run_cells(cell, [(i, j) for i in range(f.shape[0]) for j in cols],
+                   f"multiple scattering: order {k}")
+        if band is not None:
+            self._extrapolate_outside(Lnew, band)
         return Lnew
+
+    def _extrapolate_outside(self, Lnew, band):
+        """Fill the solar-zenith nodes outside ``band`` of the order being computed
+        (``Lnew``) from the two previous orders: each cell (altitude × solar zenith) and
+        wavelength times the ratio of its summed radiance in the last two orders, capped
+        at the largest such ratio in the band and at 0.98 (a cell dark in an early order,
+        e.g. in the planet's shadow, would otherwise keep a ratio above 1)."""
+        out = np.setdiff1d(np.arange(Lnew.shape[1]), band)
+        a, b = self.L, self._L_prev
+        sa, sb = np.sum(a, axis=(2, 3)), np.sum(b, axis=(2, 3))  # (n_r, n_s, nwl)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            r = np.where(sb > 0, sa / np.where(sb > 0, sb, 1.0), 0.0)
+        cap = np.minimum(np.max(r[:, band], axis=(0, 1)), 0.98)  # (nwl,)
+        r_out = np.clip(r[:, out], 0.0, cap)
+        Lnew[:, out] = a[:, out] * r_out[:, :, None, None, :]
 
     def _split(self, n: int):
         """``(Σ of the sources S^1..S^n on this grid, Σ of those on high_orders or None)``,
@@ -1065,7 +1129,8 @@ class _FieldState:
             self.S.append(self._source(self.L, self.high.field, self.high.W))
             return
         if self.S:
-            self.L = self._next_field(self.S[-1])
+            new = self._next_field(self.S[-1])
+            self._L_prev, self.L = self.L, new  # _extrapolate_outside reads both
         self.S.append(self._source(self.L))
 
     def converged_sum(self, tol: float, max_orders: int, accelerate: float = _ACCELERATION):
@@ -1082,6 +1147,10 @@ class _FieldState:
         orders, which is required to be below ``tol`` as well; ``accelerate=1`` recovers
         plain summation to ``tol`` (without the tail).
 
+        With a band (``grid.band_orders_from``, :meth:`_Field._band_nodes`) the test runs
+        on the band's solar-zenith nodes, which are all the scene reads; the tail is added
+        everywhere.
+
         Returns ``(S_sum, orders, tail)``: the summed source, the number of orders
         computed (``orders − 1`` sources) and the relative tail estimate at the stop
         (``orders`` is capped at ``max_orders``; then ``tail`` says what was reached).
@@ -1089,6 +1158,7 @@ class _FieldState:
         k = 2
         g_prev = None
         K = self._high_from()
+        band = self.field.band
         while True:
             self.source_sum(k)
             low, high = self._split(k - 1)
@@ -1096,7 +1166,9 @@ class _FieldState:
             # and the previous order resampled there); the sum returned is on this grid
             on_high = high is not None
             total = low if not on_high else self.high.from_fine(low) + high
-            top = float(np.max(total)) if total.size else 0.0
+            # the nodes the test looks at (a band exists only without high_orders)
+            test = slice(None) if band is None else band
+            top = float(np.max(total[:, test])) if total.size else 0.0
             if top <= 0.0:  # nothing scatters twice
                 return self._on_grid(low, high), k, 0.0
             if len(self.S) >= 2:
@@ -1105,20 +1177,21 @@ class _FieldState:
                     prev = self.high.from_fine(prev)
                     g_prev = None
                 floor = 1e-6 * top
-                m_prev = float(np.max(prev))
-                r_all = float(np.max(last)) / m_prev if m_prev > 0 else 0.0
+                m_prev = float(np.max(prev[:, test]))
+                r_all = float(np.max(last[:, test])) / m_prev if m_prev > 0 else 0.0
                 with np.errstate(divide="ignore", invalid="ignore"):
                     r = np.where(prev > floor, last / np.where(prev > floor, prev, 1.0), r_all)
                 r = np.clip(r, 0.0, 0.98)
                 g = r / (1.0 - r)
                 tail = last * g
-                rel = float(np.max(tail / (total + floor)))
+                rel = float(np.max((tail / (total + floor))[:, test]))
                 if accelerate <= 1.0:
                     if rel <= tol or k >= max_orders:
                         return self._on_grid(low, high), k, rel
                 else:
                     drift = (
-                        float(np.max(np.abs(g - g_prev) / np.maximum(g, 1e-300) * (last > floor)))
+                        float(np.max((np.abs(g - g_prev) / np.maximum(g, 1e-300)
+                                      * (last > floor))[:, test]))
                         if g_prev is not None else np.inf
                     )
                     if (rel <= accelerate * tol and rel * drift <= tol) or rel <= tol:
