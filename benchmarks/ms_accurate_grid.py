@@ -40,8 +40,13 @@ GRIDS = {"default": mc.DEFAULT,
          "table": (ms.TABLE_MULTIPLE_SCATTERING_GRID, ms.DEFAULT_ORDER_TOLERANCE)}
 #: grids measured beside the named ones (rows of the table, not in ms_accuracy.json)
 CANDIDATES = {
-    "default with n_mu 36": (replace(ms.MULTIPLE_SCATTERING_GRID, n_mu=36),
-                             ms.DEFAULT_ORDER_TOLERANCE),
+    # the default grid before 36 view cosines from space and 24 solar-zenith nodes and 19
+    # azimuths near the horizon (CHANGELOG): what the three knobs bought, at sunset, near
+    # the terminator and across the limb
+    "former default": (
+        replace(ms.MULTIPLE_SCATTERING_GRID, space_n_mu=None, horizon_n_sun=None,
+                horizon_n_phi=None),
+        ms.DEFAULT_ORDER_TOLERANCE),
 }
 QUICK_REFERENCE = mc.QUICK_REFERENCE
 _QUICK_ACC = MultipleScatteringGrid(n_altitude=5, n_sun=8, n_mu=4, n_phi=3, order=2,

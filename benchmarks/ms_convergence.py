@@ -85,7 +85,17 @@ SCENES = {
     "observer_12km": ("earth_t2.5", 30.0, 12e3, _ELEVATED_ZENITH),
     "space_limb": ("earth_t2.5", 10.0, 500e3, _LIMB_ZENITH),
     "mars": ("mars", 30.0, 0.0, _GROUND_ZENITH),
+    # the sun at the terminator, seen from the ground, from 12 km and from space: measured
+    # on the default grid (and the named grids of ms_accurate_grid.py), not swept
+    "sun_at_horizon": ("earth_t2.5", 0.0, 0.0, _GROUND_ZENITH),
+    "early_civil_twilight": ("earth_t2.5", -3.0, 0.0, _GROUND_ZENITH),
+    "observer_12km_sunset": ("earth_t2.5", 2.0, 12e3, _ELEVATED_ZENITH),
+    "space_limb_twilight": ("earth_t2.5", -4.0, 500e3, _LIMB_ZENITH),
 }
+#: the scenes of the one-knob sweep (the others: default grid only, the table's row
+#: ``default``)
+SWEEP_SCENES = ("clear_noon", "sunset", "civil_twilight", "nautical_twilight", "deep_twilight",
+                "observer_12km", "space_limb")
 
 DEFAULT = (ms.MULTIPLE_SCATTERING_GRID, ms.DEFAULT_ORDER_TOLERANCE)
 #: finer than every named grid in every knob but the solar zenith in daylight (see
@@ -123,10 +133,35 @@ REFERENCE_STORE = ROOT / "docs" / "convergence" / "ms_reference_values.npz"
 KNOBS = {
     "n_sun": (10, 16, 24),
     "n_mu": (24, 32, 36),
-    "n_phi": (13, 17, 21),
+    "n_phi": (13, 17, 19, 21),
+    "space_n_mu": (32, 36),
+    "horizon_n_sun": (16, 24),
+    "horizon_n_phi": (13, 17, 19, 21),
     "n_altitude": (24, 32),
     "order": (2, 3),
     "order_tolerance": (1e-2, 1e-3, 1e-4),
+}
+
+
+def _near_horizon(name):
+    """Whether scene ``name``'s grid takes the default's ``horizon_*`` knobs (an observer
+    inside the atmosphere, the sun within ``HORIZON_SUN_ELEVATION``)."""
+    _, elevation, altitude, _ = SCENES[name]
+    lo, hi = ms.HORIZON_SUN_ELEVATION
+    return altitude <= 100e3 and lo <= elevation <= hi
+
+
+#: knobs that change only some scenes' grids: the other scenes are not recomputed for them
+#: (their values are the default's; the table shows "—"); n_sun and n_phi do not reach the
+#: scenes near the horizon, whose grids take horizon_n_sun and horizon_n_phi instead, nor
+#: n_mu the observers above the atmosphere (space_n_mu)
+KNOB_SCENES = {
+    "n_sun": lambda name: not _near_horizon(name),
+    "n_phi": lambda name: not _near_horizon(name),
+    "n_mu": lambda name: SCENES[name][2] <= 100e3,
+    "space_n_mu": lambda name: SCENES[name][2] > 100e3,
+    "horizon_n_sun": _near_horizon,
+    "horizon_n_phi": _near_horizon,
 }
 #: atmospheres of the one-knob sweep in the full run (the others: default grid only)
 SWEEP_ATMOSPHERES = ("earth_t2.5",)
@@ -226,7 +261,22 @@ def _reference_key(atm, names, reference) -> str:
 
     grid, tol = reference
     geometry = [[n, *scene_geometry(n)] for n in names]
-    return cache.fingerprint("ms_reference", ms._FIELD_VERSION, atm, grid, float(tol), geometry)[:16]
+    return cache.fingerprint("ms_reference", ms._FIELD_VERSION, atm, _grid_settings(grid),
+                             float(tol), geometry)[:16]
+
+
+def _grid_settings(grid) -> dict:
+    """The fields of ``grid`` that differ from the dataclass defaults (nested for
+    ``high_orders``): a new grid field with a default that leaves the method unchanged
+    does not change the reference's fingerprint, so the stored values stay valid."""
+    from dataclasses import fields as _fields
+
+    out = {}
+    for f in _fields(grid):
+        v = getattr(grid, f.name)
+        if v != f.default:
+            out[f.name] = _grid_settings(v) if isinstance(v, MultipleScatteringGrid) else v
+    return out
 
 
 def reference_values(atm, names, reference, store=None, progress=print):
@@ -312,7 +362,9 @@ def machine_text() -> str:
 
 
 def study(scenes, knobs, default, reference, sweep_atms, progress=print, on_atmosphere=None,
-          store=None):
+          store=None, sweep_scenes=SWEEP_SCENES):
+    """Every config of the sweep on the ``sweep_scenes`` of the ``sweep_atms`` (empty: every
+    scene), the default grid on every scene."""
     records, refinfo = [], {}
     warm_up()
     for akey, names in by_atmosphere(scenes).items():
@@ -322,14 +374,25 @@ def study(scenes, knobs, default, reference, sweep_atms, progress=print, on_atmo
         refinfo[akey] = t_ref
         progress(f"{akey}: reference built in {t_ref:.1f} s")
         done = {}
-        todo = list(configs(knobs, default)) if akey in sweep_atms else [("default", "", default)]
+        swept = [n for n in names if n in sweep_scenes or len(sweep_scenes) == 0]
+        todo = [("default", "", default)]
+        if akey in sweep_atms:
+            todo += list(configs(knobs, default))
+            if set(names) <= set(swept):  # every scene swept: the default is a knob row
+                todo = todo[1:]
         for knob, val, cfg in todo:
-            key = (cfg[0], cfg[1])
-            if key not in done:
-                done[key] = evaluate(atm, names, cfg)
+            pick = KNOB_SCENES.get(knob, lambda _: True)
+            sel = [n for n in (names if knob == "default" else swept) if pick(n)]
+            if not sel:
+                continue
+            key = next((k for k in done if k[:2] == (cfg[0], cfg[1]) and set(sel) <= set(k[2])),
+                       None)
+            if key is None:
+                key = (cfg[0], cfg[1], tuple(sel))
+                done[key] = evaluate(atm, sel, cfg)
                 progress(f"{akey}: {knob}={val}: built in {done[key][1]:.1f} s")
             out, build, evals = done[key]
-            for n in names:
+            for n in sel:
                 e_tot, e_ms = errors(out[n], ref[n], single[n])
                 records.append({
                     "knob": knob, "value": val, "is_default": cfg == default,
@@ -372,19 +435,27 @@ def table_markdown(records, refinfo, scenes, default, reference, machine):
         f"{_grid_text(reference)}; directions whose total radiance is below {FLOOR:g} of the "
         "scene maximum (per wavelength) ignored.  Build = first call with empty caches [s]: "
         "the grids centred on the scene's sun build a field per scene and the column gives "
-        "the slowest scene of the atmosphere (for turbidity 2.5 the observer in space, whose "
-        "band of sun nodes is wider; `ms_convergence.csv` has every scene's first call in "
+        "the slowest of the row's scenes of the atmosphere (a row measured on some scenes "
+        "only, \"—\" elsewhere, times those; for turbidity 2.5 the observer in space, whose "
+        "band of sun nodes is wider, is the slowest where it is measured; "
+        "`ms_convergence.csv` has every scene's first call in "
         f"`eval_s`); {machine}.",
         "",
         "| knob | value | " + " | ".join(f"build {a} [s]" for a in atms) + " | "
         + " | ".join(scenes) + " |",
         "|---|---|" + "---:|" * len(atms) + "---|" * len(scenes),
     ]
+    # a grid centred on the sun builds a field per scene: a row's build is the slowest first
+    # call among its own scenes (the default's evaluation, reused by the bold rows of knobs
+    # that reach some scenes only, covers more scenes than the row shows)
+    per_scene = default[0].sun_nodes == "scene"
     rows = {}
     for r in records:
         k = (r["knob"], str(r["value"]))
         rows.setdefault(k, {"default": r["is_default"], "build": {}, "err": {}})
-        rows[k]["build"][r["atmosphere"]] = r["build_s"]
+        t = float(r["eval_s"]) if per_scene else float(r["build_s"])
+        a = r["atmosphere"]
+        rows[k]["build"][a] = max(rows[k]["build"].get(a, t), t) if per_scene else t
         rows[k]["err"][r["scene"]] = (r["max_rel_total"], r["max_rel_ms"])
     for (knob, val), row in rows.items():
         b = " | ".join(f"{row['build'][a]:.1f}" if a in row["build"] else "—" for a in atms)
@@ -412,6 +483,15 @@ def _grid_text(cfg):
         text += f", solar zenith centred on the sun (±{g.sun_width:g}°)"
         if g.band_orders_from is not None:
             text += f", orders ≥ {g.band_orders_from} in the band when the sun is up"
+    if g.space_n_mu is not None:
+        text += f", n_mu {g.space_n_mu} for an observer in space"
+    near = [f"{name} {value}" for name, value in (("n_sun", g.horizon_n_sun),
+                                                  ("n_phi", g.horizon_n_phi))
+            if value is not None]
+    if near:
+        lo, hi = ms.HORIZON_SUN_ELEVATION
+        text += (f", {' and '.join(near)} for a sun {lo:g}° to {hi:+g}° from the horizon "
+                 "(observer in the atmosphere)")
     if g.high_orders is not None:
         text += f" (orders ≥ {g.high_orders_from}: {knobs(g.high_orders)})"
     return f"{text}, order_tolerance {tol:g}"
@@ -464,7 +544,10 @@ def plot(records, path, sweep_atm):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    rows = [r for r in records if r["atmosphere"] == sweep_atm]
+    # the swept scenes' knob rows (the scenes measured on the default grid only are in
+    # the table, not on the curves)
+    rows = [r for r in records if r["atmosphere"] == sweep_atm and r["knob"] != "default"
+            and r["scene"] in SWEEP_SCENES]
     inside = [r for r in rows if SCENES[r["scene"]][2] < 100e3]
     day = [r for r in inside if SCENES[r["scene"]][1] > 0]
     night = [r for r in inside if SCENES[r["scene"]][1] <= 0]
@@ -519,7 +602,7 @@ def replot(out: Path, official: bool):
             r[k] = float(r[k])
     plot(records, out / "ms_convergence.png", SWEEP_ATMOSPHERES[0])
     old = (out / "ms_convergence_table.md").read_text(encoding="utf-8")
-    machine = re.search(r"\[s\]; (.*)\.\n", old).group(1)
+    machine = re.search(r"`eval_s`\); (.*)\.\n", old).group(1)
     line = re.search(r"Reference build time \[s\]: (.*)\.", old).group(1)
     refinfo = {a: float(t) for a, t in (item.rsplit(" ", 1) for item in line.split(", "))}
     scenes = [s for s in SCENES if any(r["scene"] == s for r in records)]

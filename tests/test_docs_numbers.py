@@ -66,7 +66,6 @@ CHECKED_PAGES: dict[str, dict[str, str]] = {
         "0.25×": "design: node spacing of the horizon variable",
         "0.2°": "input: the lowest view elevation of the study",
         "22.5°": "arithmetic: 360°/16, the spacing of 9 azimuths over a half circle",
-        "11.25°": "arithmetic: the spacing of 17 azimuths over a half circle",
     },
     "analytic_skies.md": {
         "6×": "the issue's speed target, not a measurement",

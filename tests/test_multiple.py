@@ -237,8 +237,10 @@ def test_large_batches_give_the_answer_of_small_ones(monkeypatch, turbidity, sun
     """One answer (issue 10): the table used for ≥ TABLE_THRESHOLD directions agrees with
     the direct per-direction gather within 1 % of the multiple-scattering part — a third
     of the stated accuracy of that part (3 %) — for directions whose MS part is ≥ 1e-6 of
-    the brightest, zenith cap included.  (Measured worst down to sun −12°: 0.5 %, just
-    below the horizon seen from 12 km, where the MS part changes fastest; at −18°, with the
+    the brightest, zenith cap included.  (Measured worst down to sun −12°: 0.6 %, at sun 2°
+    (T 3, ground and 12 km), where the MS part changes fastest; the table's azimuths are a
+    multiple of the field's (with 33 table azimuths on the 19 of the field near the horizon
+    this case was 1.7 %: ``_table_azimuths``); at −18°, with the
     table's 513 × 65 nodes used below −12°, 0.8 % near the horizon — 1.8 % with the
     257 × 33 nodes used above −12°.)"""
     import atmoscatter.sky.multiple as ms_mod
@@ -271,7 +273,12 @@ def test_large_batches_give_the_answer_of_small_ones(monkeypatch, turbidity, sun
      ({"sun_width": 0.0}, r"sun_width must be in \(0, 180\]"),
      ({"high_orders_from": 1}, "high_orders_from must be an integer >= 2"),
      ({"band_orders_from": 2}, "band_orders_from must be None or an integer >= 3"),
-     ({"band_orders_from": True}, "band_orders_from must be None or an integer >= 3")],
+     ({"band_orders_from": True}, "band_orders_from must be None or an integer >= 3"),
+     ({"space_n_mu": 35}, "space_n_mu must be None or an even integer >= 2"),
+     ({"space_n_mu": 0}, "space_n_mu must be None or an even integer >= 2"),
+     ({"horizon_n_sun": 3}, "horizon_n_sun must be None or an integer >= 4"),
+     ({"horizon_n_phi": 1}, "horizon_n_phi must be None or an integer >= 2"),
+     ({"horizon_n_phi": 19.0}, "horizon_n_phi must be None or an integer >= 2")],
 )
 def test_bad_grid_is_a_one_line_error(kwargs, match):
     with pytest.raises(ValueError, match=match) as err:
@@ -721,10 +728,14 @@ def test_scene_grid_puts_a_node_on_the_sun_and_spans_every_solar_zenith():
     from 0 to max_sun_zenith, increasing, ≤ 3° apart within 6° of the sun and farther
     apart away from it (issue 10: the accuracy of a large table at the sun for the cost
     of 16 nodes)."""
+    from atmoscatter.sky import multiple as M
+
     g = ac.MULTIPLE_SCATTERING_GRID
+    lo, hi = M.HORIZON_SUN_ELEVATION
     for zen in (0.0, 0.3, 30.0, 60.0, 89.0, 96.0, 102.0, 108.0, 119.9, 120.0):
         th = np.degrees(g.for_sun(zen).sun_zenith_nodes())
-        assert th.size == g.n_sun
+        # near the horizon the grid's horizon_n_sun nodes, elsewhere n_sun
+        assert th.size == (g.horizon_n_sun if 90.0 - hi <= zen <= 90.0 - lo else g.n_sun), zen
         assert th[0] == 0.0 and th[-1] == pytest.approx(120.0)
         assert np.all(np.diff(th) > 0.5), zen  # no near-duplicate nodes
         assert np.min(np.abs(th - zen)) <= (1e-9 if 2.0 < zen < 118.0 else 1.5), zen
@@ -747,6 +758,35 @@ def test_scene_grid_widens_for_observers_above_the_atmosphere():
     th = np.degrees(wide.sun_zenith_nodes())
     mid = (th[:-1] + th[1:]) / 2
     assert np.max(np.diff(th)[np.abs(mid - 80.0) < 20.0]) <= 3.0
+    # from space the view cosines are the grid's space_n_mu (the limb: docs/convergence.md);
+    # inside the atmosphere n_mu, and without space_n_mu n_mu everywhere
+    assert g.space_n_mu is not None and g.space_n_mu > g.n_mu
+    assert wide.n_mu == g.space_n_mu and g.for_sun(80.0).n_mu == g.n_mu
+    assert replace(g, space_n_mu=None).for_sun(80.0, 22.0).n_mu == g.n_mu
+    assert f"n_mu {g.space_n_mu} for an observer above the atmosphere" in g.describe()
+    # a sun near the horizon: horizon_n_sun nodes inside the atmosphere (the terminator
+    # crosses the air the scene sees), the widened n_sun from space; the band's edges
+    # belong to it
+    from atmoscatter.sky import multiple as M
+
+    lo, hi = M.HORIZON_SUN_ELEVATION
+    assert g.horizon_n_sun is not None and g.horizon_n_sun > g.n_sun
+    for elev in (lo, -3.0, 0.0, hi):
+        assert g.for_sun(90.0 - elev).n_sun == g.horizon_n_sun, elev
+        assert g.for_sun(90.0 - elev, 22.0).n_sun == wide.n_sun, elev
+    for elev in (lo - 0.5, hi + 0.5, 30.0):
+        assert g.for_sun(90.0 - elev).n_sun == g.n_sun, elev
+    assert replace(g, horizon_n_sun=None).for_sun(90.0).n_sun == g.n_sun
+    # the same band takes horizon_n_phi azimuths (sunset's azimuthal contrast), n_phi
+    # elsewhere and from space
+    assert g.horizon_n_phi is not None and g.horizon_n_phi > g.n_phi
+    for elev in (lo, -3.0, 0.0, hi):
+        assert g.for_sun(90.0 - elev).n_phi == g.horizon_n_phi, elev
+        assert g.for_sun(90.0 - elev, 22.0).n_phi == g.n_phi, elev
+    for elev in (lo - 0.5, hi + 0.5, 30.0):
+        assert g.for_sun(90.0 - elev).n_phi == g.n_phi, elev
+    assert replace(g, horizon_n_phi=None).for_sun(90.0).n_phi == g.n_phi
+    assert f"n_sun {g.horizon_n_sun}, n_phi {g.horizon_n_phi} for a sun" in g.describe()
     # specialising twice changes nothing; a grid over every sun ignores the sun
     assert wide.for_sun(10.0, 5.0) is wide
     assert ac.TABLE_MULTIPLE_SCATTERING_GRID.for_sun(30.0) is ac.TABLE_MULTIPLE_SCATTERING_GRID

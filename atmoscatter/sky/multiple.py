@@ -202,6 +202,30 @@ class MultipleScatteringGrid:
         shorter first call (``benchmarks/bench_multiple.py``).  In twilight the sunlit
         nodes outside the band light the band and must be computed (there, and for
         observers above the atmosphere, :meth:`for_sun` switches it off).
+    space_n_mu : int or None
+        View zenith cosines (even, ≥ 2) used instead of ``n_mu`` for an observer above the
+        atmosphere (:meth:`for_sun` with ``observer_dip`` > 0; ``None``, the dataclass
+        default: ``n_mu`` for every observer).  Seen from space, the limb is made of rays
+        that graze the upper atmosphere, where the field changes fastest with the view
+        zenith near each altitude's horizon: with the default grid's 32 cosines the limb's
+        total was 1.0 % off, with 36 it is within the 1 % bound
+        (``docs/convergence.md``).
+    horizon_n_sun : int or None
+        Solar-zenith nodes (≥ 4) used instead of ``n_sun`` by :meth:`for_sun` for a sun
+        within :data:`HORIZON_SUN_ELEVATION` of the horizon (−8° to +6° elevation) seen by
+        an observer inside the atmosphere (``None``, the dataclass default: ``n_sun``
+        at every sun).  There the air the scene sees crosses the terminator, and the
+        field changes fastest with the solar zenith: with the default grid's 16 nodes the
+        total at sun 0° and −3° was 1.2 % and 2.5 % off, with 24 within 0.7 %
+        (``docs/convergence.md``).
+    horizon_n_phi : int or None
+        Azimuths (≥ 2) used instead of ``n_phi`` by :meth:`for_sun` in the same case as
+        ``horizon_n_sun`` (``None``, the dataclass default: ``n_phi`` at every sun).  With
+        the sun low the field's azimuthal contrast (bright towards the sun, dark away from
+        it) is strongest: with 17 azimuths the multiple-scattering part at sunset was at
+        the 3 % bound, with 19 within it; with the sun higher 17 and 19 give the same
+        errors to the study's digits, for a shorter first call
+        (``docs/convergence.md``, ``benchmarks/bench_multiple.py``).
     """
 
     n_altitude: int = 20
@@ -218,6 +242,9 @@ class MultipleScatteringGrid:
     sun_zenith: float | None = None
     sun_width: float = 12.0
     band_orders_from: int | None = None
+    space_n_mu: int | None = None
+    horizon_n_sun: int | None = None
+    horizon_n_phi: int | None = None
 
     def __post_init__(self):
         for name in ("n_altitude", "n_sun", "n_mu", "n_phi", "order", "altitude_refine",
@@ -262,6 +289,22 @@ class MultipleScatteringGrid:
             raise ValueError(
                 f"MultipleScatteringGrid.band_orders_from must be None or an integer >= 3, got {b!r}"
             )
+        m = self.space_n_mu
+        if m is not None and (isinstance(m, bool) or not isinstance(m, (int, np.integer))
+                              or m < 2 or m % 2):
+            raise ValueError(
+                f"MultipleScatteringGrid.space_n_mu must be None or an even integer >= 2, got {m!r}"
+            )
+        m = self.horizon_n_sun
+        if m is not None and (isinstance(m, bool) or not isinstance(m, (int, np.integer)) or m < 4):
+            raise ValueError(
+                f"MultipleScatteringGrid.horizon_n_sun must be None or an integer >= 4, got {m!r}"
+            )
+        m = self.horizon_n_phi
+        if m is not None and (isinstance(m, bool) or not isinstance(m, (int, np.integer)) or m < 2):
+            raise ValueError(
+                f"MultipleScatteringGrid.horizon_n_phi must be None or an integer >= 2, got {m!r}"
+            )
         w = self.sun_width
         if (isinstance(w, bool) or not isinstance(w, (int, float, np.floating))
                 or not (0.0 < float(w) <= 180.0)):
@@ -282,7 +325,8 @@ class MultipleScatteringGrid:
         second grid's), as ``--explain`` prints it."""
         text = ", ".join(f"{f.name} {getattr(self, f.name):g}" for f in fields(self)
                          if f.name not in ("high_orders", "high_orders_from", "sun_nodes",
-                                           "sun_zenith", "sun_width", "band_orders_from"))
+                                           "sun_zenith", "sun_width", "band_orders_from",
+                                           "space_n_mu", "horizon_n_sun", "horizon_n_phi"))
         if self.sun_nodes == "scene":
             text += (f"; solar-zenith nodes centred on the scene's sun (±{self.sun_width:g}° "
                      "band; one field per sun)")
@@ -290,6 +334,15 @@ class MultipleScatteringGrid:
                 text += f", here at {self.sun_zenith:.6g}°"
             if self.band_orders_from is not None:
                 text += f"; orders ≥ {self.band_orders_from} only in the band (sun up, observer in the atmosphere)"
+        near = [f"{name} {value}" for name, value in (("n_sun", self.horizon_n_sun),
+                                                      ("n_phi", self.horizon_n_phi))
+                if value is not None]
+        if near and self.sun_zenith is None:
+            lo, hi = HORIZON_SUN_ELEVATION
+            text += (f"; {', '.join(near)} for a sun {lo:g}° to +{hi:g}° from the "
+                     "horizon (observer in the atmosphere)")
+        if self.space_n_mu is not None and self.sun_zenith is None:
+            text += f"; n_mu {self.space_n_mu} for an observer above the atmosphere"
         else:
             text += "; solar-zenith nodes for every sun (one field per atmosphere)"
         if self.high_orders is not None:
@@ -362,10 +415,13 @@ class MultipleScatteringGrid:
         Returns
         -------
         MultipleScatteringGrid
-            With ``sun_zenith`` (and, for ``observer_dip > 0``, ``sun_width`` and
-            ``n_sun``) set, and ``band_orders_from`` switched off (``None``) for a sun
-            below the horizon (``sun_zenith`` > 90°) or ``observer_dip > 0``; a grid
-            already specialised is returned as it is.
+            With ``sun_zenith`` (and, for ``observer_dip > 0``, ``sun_width``, ``n_sun``
+            and, if ``space_n_mu`` is set, ``n_mu = space_n_mu``; for a sun near the
+            horizon inside the atmosphere, ``n_sun = horizon_n_sun`` and
+            ``n_phi = horizon_n_phi`` where they are set) set, and
+            ``band_orders_from`` switched off (``None``) for a sun below the horizon
+            (``sun_zenith`` > 90°) or ``observer_dip > 0``; a grid already specialised
+            is returned as it is.
         """
         if self.sun_nodes != "scene" or self.sun_zenith is not None:
             return self
@@ -381,20 +437,39 @@ class MultipleScatteringGrid:
         if high is not None:
             high = high.for_sun(z, dip)
         width = min(float(self.sun_width) + dip, 180.0)  # dip 0: the width and n_sun stay
-        n = int(np.ceil(self.n_sun * width / float(self.sun_width)))
+        lo, hi = HORIZON_SUN_ELEVATION
+        near_horizon = dip == 0.0 and 90.0 - hi <= z <= 90.0 - lo
+        n_sun = self.horizon_n_sun if (near_horizon and self.horizon_n_sun is not None) else self.n_sun
+        n = int(np.ceil(n_sun * width / float(self.sun_width)))
         band = self.band_orders_from if (z <= 90.0 and dip == 0.0) else None
-        return replace(self, sun_zenith=z, sun_width=width, n_sun=n, high_orders=high,
-                       band_orders_from=band)
+        n_mu = self.space_n_mu if (dip > 0.0 and self.space_n_mu is not None) else self.n_mu
+        n_phi = self.horizon_n_phi if (near_horizon and self.horizon_n_phi is not None) else self.n_phi
+        return replace(self, sun_zenith=z, sun_width=width, n_sun=n, n_mu=n_mu, n_phi=n_phi,
+                       high_orders=high, band_orders_from=band)
 
 
-MULTIPLE_SCATTERING_GRID = MultipleScatteringGrid(n_altitude=32, n_sun=16, n_mu=32,
-                                                  sun_nodes="scene", band_orders_from=3)
+HORIZON_SUN_ELEVATION: tuple[float, float] = (-8.0, 6.0)
+"""Sun elevations [deg] (inclusive) at which :meth:`MultipleScatteringGrid.for_sun` uses
+``horizon_n_sun`` solar-zenith nodes and ``horizon_n_phi`` azimuths for an observer inside
+the atmosphere: measured at sun 5°, 2°, 0°, −1°, −3° (ground) and 2° (12 km), where the
+daylight grid (16 nodes, 17 azimuths) missed the bounds or sat at them, and with 8° and
+10° (ground), −6° and −10° within them on 16 nodes (``docs/convergence.md``)."""
+
+MULTIPLE_SCATTERING_GRID = MultipleScatteringGrid(n_altitude=32, n_sun=16, n_mu=32, n_phi=17,
+                                                  sun_nodes="scene", band_orders_from=3,
+                                                  space_n_mu=36, horizon_n_sun=24,
+                                                  horizon_n_phi=19)
 """Default grid: solar-zenith nodes centred on the scene's sun (one field per sun), finer in
 altitude (haze) and view zenith (the zenith cap, the limb) than :data:`TABLE_MULTIPLE_SCATTERING_GRID`
 for about the same first call; with the sun up and the observer inside the atmosphere,
 orders from the third on are computed only in the band of nodes around the sun
-(``band_orders_from``); chosen from the error-against-run-time study and measured
-against a grid finer in every knob (``docs/convergence.md``)."""
+(``band_orders_from``); for an observer above the atmosphere 36 view cosines
+(``space_n_mu``: 32 left the limb's total at the 1 % bound), and for a sun near the horizon
+(:data:`HORIZON_SUN_ELEVATION`) 24 solar-zenith nodes and 19 azimuths (``horizon_n_sun``,
+``horizon_n_phi``: 16 nodes missed the bounds at and just below the horizon, 17 azimuths
+left sunset's multiple-scattering part at the 3 % bound); chosen from the
+error-against-run-time study and measured against a grid finer in every knob
+(``docs/convergence.md``)."""
 
 ACCURATE_MULTIPLE_SCATTERING_GRID = MultipleScatteringGrid(n_altitude=32, n_sun=24, n_mu=36,
                                                            n_phi=21, sun_nodes="scene")
@@ -430,6 +505,18 @@ _MS_TABLE_NODES = (257, 33)
 #: table's cost (tests/test_multiple.py::test_large_batches_give_the_answer_of_small_ones)
 _MS_TABLE_NODES_DEEP_TWILIGHT = (513, 65)
 _DEEP_TWILIGHT_ELEVATION = -12.0  # [deg]
+
+
+def _table_azimuths(n_table: int, n_field: int) -> int:
+    """Azimuth nodes of the multiple-scattering sky table: at least ``n_table``, and a
+    multiple of the field's azimuth spacing (``k (n_field − 1) + 1``), so that every field
+    azimuth node is a table node.  The gather interpolates the field linearly in azimuth,
+    so the multiple-scattering part has kinks at the field's nodes; a bilinear table whose
+    nodes miss them cuts the corners (with the field's 19 azimuths near the horizon and 33
+    table azimuths, 1.7 % of the multiple-scattering part at sun 2° seen from 12 km;
+    ``tests/test_multiple.py::test_large_batches_give_the_answer_of_small_ones``)."""
+    step = int(n_field) - 1
+    return step * int(np.ceil((int(n_table) - 1) / step)) + 1
 
 _SUN_CENTRE, _SUN_WIDTH = 92.0, 16.0
 #: node density at the sun of a ``sun_nodes="scene"`` grid relative to far from it [-]
@@ -1584,8 +1671,8 @@ def multiple_scattering(
         in the process and on disk (the first call for an atmosphere costs seconds —
         ``benchmarks/bench_multiple.py`` — later calls and later processes only the
         view-path gather).  At low sun the azimuth resolution dominates the error (the
-        ``n_phi`` row of the study in ``docs/convergence.md``; the default 17 azimuths,
-        11.25° apart, were chosen from it).
+        ``n_phi`` row of the study in ``docs/convergence.md``; the default 19 azimuths,
+        10° apart, were chosen from it).
     batch_size : int
         Directions per batch of the gather (bounds memory).
     single_method : str or None
@@ -1648,6 +1735,7 @@ def multiple_scattering(
         # the sun), symmetric about the solar vertical: tabulate it like single scattering
         deep = s[2] < np.sin(np.radians(_DEEP_TWILIGHT_ELEVATION))
         n_mu_t, n_phi_t = _MS_TABLE_NODES_DEEP_TWILIGHT if deep else _MS_TABLE_NODES
+        n_phi_t = _table_azimuths(n_phi_t, field.grid.n_phi)
         table = _ms_sky_table(atmosphere, atm, fkey, albedo, field, logS, r0, s, n_mu_t,
                               n_phi_t, direct)
         extra = np.concatenate(
