@@ -894,3 +894,39 @@ def test_single_method_sets_order_one_only():
     assert np.max(np.abs(b[ok] / a[ok] - 1.0)) <= 1e-3
     with pytest.raises(ValueError, match="method"):
         multiple_scattering(atm, v[:2], s, grid=_COARSE, single_method="nope")
+
+
+def test_in_process_caches_hold_their_memory_budget(monkeypatch):
+    """A process rendering many suns on a sun-centred grid keeps at most the caches'
+    byte budget of fields (the newest always), and an evicted field comes back with the
+    same values (a 21-wavelength twilight series once filled 21 GB: ``_CACHE_BYTES``)."""
+    from atmoscatter.sky import multiple as M
+
+    monkeypatch.setenv("ATMOSCATTER_CACHE_DIR", "off")
+    atm = ac.earth_turbidity_atmosphere(2.5)
+    grid = MultipleScatteringGrid(n_altitude=5, n_sun=6, n_mu=4, n_phi=5, order=2,
+                                  sun_nodes="scene")
+    v = np.array([[0.0, 0.0, 1.0], [0.0, 0.6, 0.8]])
+    suns = [_dir(z, 0.0) for z in (30.0, 60.0, 80.0)]
+    M._clear_process_caches()
+    first = multiple_scattering(atm, v, suns[0], grid=grid)
+    one_state = sum(M._nbytes(x) for x in M._CACHE.values())
+    one_result = sum(M._nbytes(x) for x in M._RESULTS.values())
+    assert one_state > 0 and one_result > 0
+    # a budget of one summed field and a half (a state is larger): every new sun evicts
+    # the older entries of both caches
+    assert one_state > 1.5 * one_result
+    monkeypatch.setattr(M, "_CACHE_BYTES", int(1.5 * one_result))
+    for s in suns[1:]:
+        multiple_scattering(atm, v, s, grid=grid)
+        assert len(M._CACHE) == 1 and len(M._RESULTS) == 1
+    # the first sun again: rebuilt, the same values
+    np.testing.assert_allclose(multiple_scattering(atm, v, suns[0], grid=grid), first,
+                               rtol=1e-12, atol=0.0)
+    # without a byte limit the count limit alone applies (the former behaviour)
+    monkeypatch.setattr(M, "_CACHE_BYTES", 2**62)
+    M._clear_process_caches()
+    for s in suns:
+        multiple_scattering(atm, v, s, grid=grid)
+    assert len(M._RESULTS) == 3 and len(M._CACHE) == 3
+    M._clear_process_caches()

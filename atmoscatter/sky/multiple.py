@@ -525,6 +525,13 @@ _HORIZON_SPLIT = True  # μ quadrature split at each altitude's horizon (see _Fi
 _CACHE: dict = {}
 _CACHE_LOCK = threading.Lock()
 _CACHE_MAX = 4
+#: memory budget [bytes] of the in-process caches of field states (``_CACHE``) and of summed
+#: fields (``_RESULTS``), each: beyond it the oldest entries go (the newest always stays;
+#: the disk cache, or a rebuild, gives the same values back).  A sun-centred grid builds a
+#: field per sun, so a process rendering many suns filled the count-limited caches with
+#: fields it would not read again: a 21-wavelength twilight series (the gallery) reached
+#: 21 GB and was killed on a 24 GB machine
+_CACHE_BYTES = 2 * 2**30
 _THREADS = max(1, min(4, os.cpu_count() or 1))
 #: memory budget [bytes] for the node rays kept between orders (:class:`_FieldState`).  The
 #: default grid keeps about 0.25 GB at 3 wavelengths and 0.3 GB at 21 (spectral sampling);
@@ -1463,6 +1470,39 @@ def _warn_tail(n, tail, tol):
         )
 
 
+def _nbytes(obj, seen=None, depth=0) -> int:
+    """Bytes of the NumPy arrays an in-process cache entry holds (arrays, and those in its
+    lists, tuples, dicts and plain objects, each counted once; the prepared atmosphere,
+    shared by every entry, is not counted)."""
+    seen = set() if seen is None else seen
+    if id(obj) in seen or depth > 6 or isinstance(obj, (qd.PreparedAtmosphere, str, bytes)):
+        return 0
+    seen.add(id(obj))
+    if isinstance(obj, np.ndarray):
+        return int(obj.nbytes)
+    if isinstance(obj, dict):
+        items = obj.values()
+    elif isinstance(obj, (list, tuple)):
+        items = obj
+    elif hasattr(obj, "__dict__") and not isinstance(obj, type):
+        items = vars(obj).values()
+    else:
+        return 0
+    return sum(_nbytes(x, seen, depth + 1) for x in items)
+
+
+def _trim(cache: dict, max_entries: int, max_bytes: int, keep=None) -> None:
+    """Drop the oldest entries of an in-process cache (insertion order) until it holds at
+    most ``max_entries`` and ``max_bytes`` (:func:`_nbytes`); the entry ``keep`` (a key)
+    and the newest entry always stay."""
+    while len(cache) > max_entries or (
+            len(cache) > 1 and sum(_nbytes(v) for v in cache.values()) > max_bytes):
+        old = next((k for k in cache if k != keep), None)
+        if old is None or old == next(reversed(cache)):
+            break
+        cache.pop(old)
+
+
 def _state_for(atm_obj, atm, grid, albedo):
     """The in-process field state (successive orders so far) of an atmosphere; the
     caller holds ``_CACHE_LOCK``."""
@@ -1472,8 +1512,7 @@ def _state_for(atm_obj, atm, grid, albedo):
     except TypeError:  # unhashable custom atmosphere: no in-process caching
         return _FieldState(atm, grid, albedo)
     if key not in _CACHE:
-        if len(_CACHE) >= _CACHE_MAX:
-            _CACHE.pop(next(iter(_CACHE)))
+        _trim(_CACHE, _CACHE_MAX - 1, _CACHE_BYTES)
         _CACHE[key] = _FieldState(atm, grid, albedo)
     return _CACHE[key]
 
@@ -1576,6 +1615,8 @@ def _field_for(atm_obj, atm, grid, albedo, orders, tol=None):
                 # a field of one sun is rarely extended: its kept node rays (the bulk of
                 # the state's memory) go, and are marched again if more orders are asked
                 st.marches.clear()
+            # the states grew while they computed: hold the caches to their budget
+            _trim(_CACHE, _CACHE_MAX, _CACHE_BYTES)
         return {"S_sum": S_sum, "orders": np.array(n), "tail": np.array(tail)}
 
     if key is None:
@@ -1597,9 +1638,8 @@ def _field_for(atm_obj, atm, grid, albedo, orders, tol=None):
             # the gather reads log S: take the logarithms once per field, not per call
             res["logS"] = _gather_table(field, res["S_sum"])
             with _CACHE_LOCK:
-                if len(_RESULTS) >= _RESULTS_MAX:
-                    _RESULTS.pop(next(iter(_RESULTS)))
                 _RESULTS[key] = res
+                _trim(_RESULTS, _RESULTS_MAX, _CACHE_BYTES, keep=key)
     if orders is None:
         _warn_tail(int(res["orders"]), float(res["tail"]), tol)
     logS = res.get("logS")
