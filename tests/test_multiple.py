@@ -770,23 +770,23 @@ def test_scene_grid_widens_for_observers_above_the_atmosphere():
     from atmoscatter.sky import multiple as M
 
     lo, hi = M.HORIZON_SUN_ELEVATION
-    assert g.horizon_n_sun is not None and g.horizon_n_sun > g.n_sun
-    for elev in (lo, -3.0, 0.0, hi):
-        assert g.for_sun(90.0 - elev).n_sun == g.horizon_n_sun, elev
-        assert g.for_sun(90.0 - elev, 22.0).n_sun == wide.n_sun, elev
-    for elev in (lo - 0.5, hi + 0.5, 30.0):
-        assert g.for_sun(90.0 - elev).n_sun == g.n_sun, elev
-    assert replace(g, horizon_n_sun=None).for_sun(90.0).n_sun == g.n_sun
     # the same band takes horizon_n_phi azimuths (sunset's azimuthal contrast), n_phi
     # elsewhere and from space
-    assert g.horizon_n_phi is not None and g.horizon_n_phi > g.n_phi
-    for elev in (lo, -3.0, 0.0, hi):
-        assert g.for_sun(90.0 - elev).n_phi == g.horizon_n_phi, elev
-        assert g.for_sun(90.0 - elev, 22.0).n_phi == g.n_phi, elev
-    for elev in (lo - 0.5, hi + 0.5, 30.0):
-        assert g.for_sun(90.0 - elev).n_phi == g.n_phi, elev
-    assert replace(g, horizon_n_phi=None).for_sun(90.0).n_phi == g.n_phi
+    for knob, from_space in (("n_sun", wide.n_sun), ("n_phi", g.n_phi)):
+        near = getattr(g, "horizon_" + knob)
+        assert near is not None and near > getattr(g, knob)
+        for elev in (lo, -3.0, 0.0, hi):
+            assert getattr(g.for_sun(90.0 - elev), knob) == near, (knob, elev)
+            assert getattr(g.for_sun(90.0 - elev, 22.0), knob) == from_space, (knob, elev)
+        for elev in (lo - 0.5, hi + 0.5, 30.0):
+            assert getattr(g.for_sun(90.0 - elev), knob) == getattr(g, knob), (knob, elev)
+        unset = replace(g, **{"horizon_" + knob: None}).for_sun(90.0)
+        assert getattr(unset, knob) == getattr(g, knob)
     assert f"n_sun {g.horizon_n_sun}, n_phi {g.horizon_n_phi} for a sun" in g.describe()
+    # the description says what the grid is: centred on the sun or over every sun, never both
+    for grid in (g, g.for_sun(60.0), wide, ac.ACCURATE_MULTIPLE_SCATTERING_GRID):
+        assert "for every sun" not in grid.describe() and "centred on" in grid.describe()
+    assert "for every sun" in ac.TABLE_MULTIPLE_SCATTERING_GRID.describe()
     # specialising twice changes nothing; a grid over every sun ignores the sun
     assert wide.for_sun(10.0, 5.0) is wide
     assert ac.TABLE_MULTIPLE_SCATTERING_GRID.for_sun(30.0) is ac.TABLE_MULTIPLE_SCATTERING_GRID

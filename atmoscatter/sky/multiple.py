@@ -284,27 +284,15 @@ class MultipleScatteringGrid:
                     "MultipleScatteringGrid.sun_zenith must be None or in [0, "
                     f"max_sun_zenith={self.max_sun_zenith:g}] deg, got {z!r}"
                 )
-        b = self.band_orders_from
-        if b is not None and (isinstance(b, bool) or not isinstance(b, (int, np.integer)) or b < 3):
-            raise ValueError(
-                f"MultipleScatteringGrid.band_orders_from must be None or an integer >= 3, got {b!r}"
-            )
-        m = self.space_n_mu
-        if m is not None and (isinstance(m, bool) or not isinstance(m, (int, np.integer))
-                              or m < 2 or m % 2):
-            raise ValueError(
-                f"MultipleScatteringGrid.space_n_mu must be None or an even integer >= 2, got {m!r}"
-            )
-        m = self.horizon_n_sun
-        if m is not None and (isinstance(m, bool) or not isinstance(m, (int, np.integer)) or m < 4):
-            raise ValueError(
-                f"MultipleScatteringGrid.horizon_n_sun must be None or an integer >= 4, got {m!r}"
-            )
-        m = self.horizon_n_phi
-        if m is not None and (isinstance(m, bool) or not isinstance(m, (int, np.integer)) or m < 2):
-            raise ValueError(
-                f"MultipleScatteringGrid.horizon_n_phi must be None or an integer >= 2, got {m!r}"
-            )
+        for name, low, even in (("band_orders_from", 3, False), ("space_n_mu", 2, True),
+                                ("horizon_n_sun", 4, False), ("horizon_n_phi", 2, False)):
+            m = getattr(self, name)
+            if m is not None and (isinstance(m, bool) or not isinstance(m, (int, np.integer))
+                                  or m < low or (even and m % 2)):
+                kind = "an even integer" if even else "an integer"
+                raise ValueError(
+                    f"MultipleScatteringGrid.{name} must be None or {kind} >= {low}, got {m!r}"
+                )
         w = self.sun_width
         if (isinstance(w, bool) or not isinstance(w, (int, float, np.floating))
                 or not (0.0 < float(w) <= 180.0)):
@@ -334,15 +322,16 @@ class MultipleScatteringGrid:
                 text += f", here at {self.sun_zenith:.6g}°"
             if self.band_orders_from is not None:
                 text += f"; orders ≥ {self.band_orders_from} only in the band (sun up, observer in the atmosphere)"
-        near = [f"{name} {value}" for name, value in (("n_sun", self.horizon_n_sun),
-                                                      ("n_phi", self.horizon_n_phi))
-                if value is not None]
-        if near and self.sun_zenith is None:
-            lo, hi = HORIZON_SUN_ELEVATION
-            text += (f"; {', '.join(near)} for a sun {lo:g}° to +{hi:g}° from the "
-                     "horizon (observer in the atmosphere)")
-        if self.space_n_mu is not None and self.sun_zenith is None:
-            text += f"; n_mu {self.space_n_mu} for an observer above the atmosphere"
+            if self.sun_zenith is None:  # specialised (for_sun): the knobs above are the sun's
+                near = [f"{name} {value}" for name, value in (("n_sun", self.horizon_n_sun),
+                                                              ("n_phi", self.horizon_n_phi))
+                        if value is not None]
+                if near:
+                    lo, hi = HORIZON_SUN_ELEVATION
+                    text += (f"; {', '.join(near)} for a sun {lo:g}° to +{hi:g}° from the "
+                             "horizon (observer in the atmosphere)")
+                if self.space_n_mu is not None:
+                    text += f"; n_mu {self.space_n_mu} for an observer above the atmosphere"
         else:
             text += "; solar-zenith nodes for every sun (one field per atmosphere)"
         if self.high_orders is not None:
