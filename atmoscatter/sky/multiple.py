@@ -871,28 +871,35 @@ class _Field:
         d_out = self.directions(self.mu_out)
         n_mu = self.grid.n_mu
         n_dir = n_mu * nphi
-        cache = {}
-        out = []
-        for mu_q, w_q in zip(self.mu_q, self.mu_wq, strict=True):
-            key = mu_q.tobytes()
-            if key not in cache:
-                mu_f, ph_f = np.meshgrid(mu_q, phi_full, indexing="ij")
-                st = np.sqrt(np.maximum(1.0 - mu_f * mu_f, 0.0))
-                dfull = np.stack([st * np.cos(ph_f), st * np.sin(ph_f), mu_f], axis=-1).reshape(-1, 3)
-                wfull = (w_q[:, None] * np.ones_like(ph_f)).ravel()
-                cos = np.clip(d_out @ dfull.T, -1.0, 1.0)
-                per = []
-                for _, _, phase in self.atm.scatterers:
-                    p = np.asarray(phase(cos), dtype=float) * wfull[None, :]
-                    p /= np.sum(p, axis=1, keepdims=True)
-                    # fold φ and 2π − φ onto the half circle (the sums np.add.at over
-                    # ``target`` would form, in the same order)
-                    p = p.reshape(-1, n_mu, 2 * (nphi - 1))
-                    folded = p[:, :, :nphi].copy()
-                    folded[:, :, 1 : nphi - 1] += p[:, :, : nphi - 1 : -1]
-                    per.append(folded.reshape(-1, n_dir))
-                cache[key] = np.asarray(per)
-            out.append(cache[key])
+        # one operator per distinct quadrature (altitudes below the limb split share the
+        # double Gauss one), built over the thread pool: the phase functions and the
+        # products release the GIL, and each operator is written by one thread only
+        keys = {}
+        for i, mu_q in enumerate(self.mu_q):
+            keys.setdefault(mu_q.tobytes(), i)
+        built = {}
+
+        def one(i):
+            mu_q, w_q = self.mu_q[i], self.mu_wq[i]
+            mu_f, ph_f = np.meshgrid(mu_q, phi_full, indexing="ij")
+            st = np.sqrt(np.maximum(1.0 - mu_f * mu_f, 0.0))
+            dfull = np.stack([st * np.cos(ph_f), st * np.sin(ph_f), mu_f], axis=-1).reshape(-1, 3)
+            wfull = (w_q[:, None] * np.ones_like(ph_f)).ravel()
+            cos = np.clip(d_out @ dfull.T, -1.0, 1.0)
+            per = []
+            for _, _, phase in self.atm.scatterers:
+                p = np.asarray(phase(cos), dtype=float) * wfull[None, :]
+                p /= np.sum(p, axis=1, keepdims=True)
+                # fold φ and 2π − φ onto the half circle (the sums np.add.at over
+                # ``target`` would form, in the same order)
+                p = p.reshape(-1, n_mu, 2 * (nphi - 1))
+                folded = p[:, :, :nphi].copy()
+                folded[:, :, 1 : nphi - 1] += p[:, :, : nphi - 1 : -1]
+                per.append(folded.reshape(-1, n_dir))
+            built[i] = np.asarray(per)
+
+        _run_cells(one, list(keys.values()), "multiple scattering: phase operators")
+        out = [built[keys[mu_q.tobytes()]] for mu_q in self.mu_q]
         return np.asarray(out)
 
 
@@ -984,7 +991,8 @@ def _refine_log(field: _Field, logt: np.ndarray) -> np.ndarray:
     out[0::r] = logt
     if r == 1:
         return out
-    for i in range(n - 1):
+
+    def interval(i):  # the values inserted between nodes i and i + 1 (one thread each)
         a, b = logt[i], logt[i + 1]
         lo, hi = np.minimum(a, b), np.maximum(a, b)
         i0 = min(max(i - 1, 0), max(n - 4, 0))
@@ -997,7 +1005,9 @@ def _refine_log(field: _Field, logt: np.ndarray) -> np.ndarray:
                 w = [np.prod([(x - xs[m]) / (xs[q] - xs[m]) for m in range(4) if m != q])
                      for q in range(4)]
                 mid = sum(w[q] * logt[i0 + q] for q in range(4))
-            out[r * i + k] = np.clip(mid, lo, hi)
+            np.clip(mid, lo, hi, out=out[r * i + k])
+
+    _run_cells(interval, list(range(n - 1)), report=False)
     return out
 
 
@@ -1421,21 +1431,23 @@ def _compact(field: _Field, mc: _March, packed=None):
     return _Compact(loc, mc.ground, mc.t_end, mc.mus_end)
 
 
-def _run_cells(fn, cells, stage: str = ""):
+def _run_cells(fn, cells, stage: str = "", report: bool = True):
     """Apply ``fn`` to every grid cell, over a small thread pool (the kernels and most
     NumPy operations release the GIL); progress is reported as ``stage``
-    (:mod:`atmoscatter._progress`)."""
+    (:mod:`atmoscatter._progress`) unless ``report`` is false (steps too short to show)."""
     total = len(cells)
     if _THREADS <= 1 or total < 2:
         for k, c in enumerate(cells):
             fn(c)
-            _progress.report(stage, k + 1, total)
+            if report:
+                _progress.report(stage, k + 1, total)
         return
     from concurrent.futures import ThreadPoolExecutor
 
     with ThreadPoolExecutor(max_workers=_THREADS) as pool:
         for k, _ in enumerate(pool.map(fn, cells)):
-            _progress.report(stage, k + 1, total)
+            if report:
+                _progress.report(stage, k + 1, total)
 
 
 _MAX_AUTO_ORDERS = 200
