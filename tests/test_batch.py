@@ -90,6 +90,31 @@ class TestLoad:
             expand_sweep({"time": {"start": "2023-01-01", "stop": "2023-01-02", "step": "x"}})
 
 
+def test_many_suns_on_the_default_multiple_scattering_grid_get_a_table_hint():
+    """Ten or more multiple-scattering scenes of one atmosphere with distinct suns on the
+    default grid (a field each) are told about ms_grid=table (one field for all); fewer
+    suns, another grid set, other models or the suns spread over atmospheres are not."""
+    from atmoscatter.batch.run import MS_TABLE_HINT_SUNS, ms_grid_hint
+
+    def rows(n, **extra):
+        return [(f"s{k}", {"model": "multiple_scattering", "sun_elevation_deg": 5.0 + k,
+                           **extra}, "") for k in range(n)]
+
+    n = MS_TABLE_HINT_SUNS
+    hint = ms_grid_hint(rows(n))
+    assert hint is not None and f"{n} multiple_scattering scenes" in hint
+    assert "ms_grid=table" in hint
+    assert ms_grid_hint(rows(n - 1)) is None
+    assert ms_grid_hint(rows(n, ms_grid="table")) is None
+    assert ms_grid_hint(rows(n, ms_grid="accurate")) is None
+    assert ms_grid_hint([(a, dict(f, model="preetham"), b) for a, f, b in rows(n)]) is None
+    # the same sun n times: one field
+    assert ms_grid_hint([(f"s{k}", {"model": "multiple_scattering"}, "") for k in range(n)]) is None
+    # n suns over two atmospheres: fewer than n per field
+    spread = [(a, dict(f, turbidity=2 + k % 2), b) for k, (a, f, b) in enumerate(rows(n))]
+    assert ms_grid_hint(spread) is None
+
+
 class TestRun:
     def test_failure_isolated_and_summary(self, tmp_path):
         p = tmp_path / "s.csv"

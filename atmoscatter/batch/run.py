@@ -167,6 +167,44 @@ def _isatty(stream) -> bool:
         return False
 
 
+#: distinct suns (of one atmosphere) from which a batch of ``multiple_scattering`` scenes on
+#: the default grid is told about ``ms_grid = "table"`` (:func:`ms_grid_hint`): a field per
+#: sun costs several seconds each (``benchmarks/bench_multiple.py``), the table grid's one
+#: field about as much as ten of them, and a new sun on it its sky tables only
+MS_TABLE_HINT_SUNS = 10
+
+#: the scene fields that fix a multiple-scattering field's sun and atmosphere
+_SUN_FIELDS = ("time", "sun_elevation_deg", "sun_azimuth_deg", "latitude", "longitude",
+               "altitude")
+_ATMOSPHERE_FIELDS = ("atmosphere", "turbidity", "ground_albedo", "orders", "sampling",
+                      "wavelength_step")
+
+
+def ms_grid_hint(items) -> str | None:
+    """A one-line suggestion, or ``None``: when at least :data:`MS_TABLE_HINT_SUNS` scenes
+    of one atmosphere use ``model = "multiple_scattering"`` on the default grid
+    (``ms_grid`` unset) with distinct suns, each builds its own field, and ``ms_grid =
+    "table"`` would build one for all of them (less accurate per sky: the measured
+    figures are in ``docs/convergence.md``).  The batch keeps the grid it was given; the
+    choice between the two is the user's.
+
+    ``items``: ``[(name, fields, ...)]`` as :func:`run_batch` takes them.
+    """
+    suns: dict = {}
+    for item in items:
+        fields = item[1]
+        if fields.get("model") != "multiple_scattering" or fields.get("ms_grid") not in (None, ""):
+            continue
+        atm = tuple(str(fields.get(k, "")) for k in _ATMOSPHERE_FIELDS)
+        suns.setdefault(atm, set()).add(tuple(str(fields.get(k, "")) for k in _SUN_FIELDS))
+    n = max((len(v) for v in suns.values()), default=0)
+    if n < MS_TABLE_HINT_SUNS:
+        return None
+    return (f"note: {n} multiple_scattering scenes of one atmosphere on the default grid build "
+            "a field per sun; ms_grid=table builds one field for every sun (faster for "
+            "series, less accurate per sky: docs/convergence.md)")
+
+
 def run_batch(items, out_dir, *, workers: int = 1, client=None, scheduler: str | None = None,
               resume: bool = True, progress=True, batch_size: int | None = None,
               rejected=()) -> BatchSummary:
@@ -238,6 +276,9 @@ def run_batch(items, out_dir, *, workers: int = 1, client=None, scheduler: str |
                     todo.append((name, fields, path))
             for r in results.values():
                 bar.update(r)
+            hint = ms_grid_hint(todo)
+            if hint and stream is not None:
+                print(hint, file=stream, flush=True)
 
             def record(r):
                 results[r.name] = r
