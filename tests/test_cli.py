@@ -211,10 +211,16 @@ def test_precompute_progress_shows_each_multiple_scattering_order(monkeypatch):
     assert not _progress.active()
     # first the node rays of each of the 4 altitudes are marched (shared by every sun);
     # orders=4: the fields of orders 1-3 are built (the gather adds the last order);
-    # 4 altitudes × 6 suns = 24 cells each, every cell reported once
+    # 4 altitudes × 6 suns = 24 cells each, every cell reported once; after order 1 the
+    # phase operators, one per distinct view-cosine quadrature (at most one per altitude)
     stages = [f"multiple scattering: order {k}" for k in (1, 2, 3)]
-    assert list(dict.fromkeys(a[0] for a in seen)) == ["multiple scattering: view rays"] + stages
+    phase = "multiple scattering: phase operators"
+    assert list(dict.fromkeys(a[0] for a in seen)) == (
+        ["multiple scattering: view rays", stages[0], phase] + stages[1:])
     assert sorted(d for s_, d, t in seen if s_ == "multiple scattering: view rays") == [1, 2, 3, 4]
+    n_phase = [t for s_, d, t in seen if s_ == phase]
+    assert 1 <= n_phase[0] <= 4 and sorted(d for s_, d, t in seen if s_ == phase) == list(
+        range(1, n_phase[0] + 1))
     for st in stages:
         assert sorted(d for s_, d, t in seen if s_ == st) == list(range(1, 25))
         assert st in "".join(err.parts)
