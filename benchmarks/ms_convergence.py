@@ -91,6 +91,10 @@ SCENES = {
     "early_civil_twilight": ("earth_t2.5", -3.0, 0.0, _GROUND_ZENITH),
     "observer_12km_sunset": ("earth_t2.5", 2.0, 12e3, _ELEVATED_ZENITH),
     "space_limb_twilight": ("earth_t2.5", -4.0, 500e3, _LIMB_ZENITH),
+    # the ends of nautical and astronomical twilight (the bounds stop at −12°; the
+    # error from −12° to −18° is published): measured on the default grid, not swept
+    "nautical_twilight_end": ("earth_t2.5", -12.0, 0.0, _GROUND_ZENITH),
+    "astronomical_twilight_end": ("earth_t2.5", -18.0, 0.0, _GROUND_ZENITH),
 }
 #: the scenes of the one-knob sweep (the others: default grid only, the table's row
 #: ``default``)

@@ -16,9 +16,10 @@ mode runs the same scripts on tiny problems and writes only into ``--out`` (a te
 directory by default), to prove in CI that they still work — its numbers are not for
 publishing.
 
-The multiple-scattering convergence study (``benchmarks/ms_convergence.py``) and the
+The multiple-scattering convergence study (``benchmarks/ms_convergence.py``), the
 measurement of the named grids against a finer reference (``benchmarks/ms_accurate_grid.py``;
-it rewrites ``atmoscatter/data/ms_accuracy.json``, the renderer's error statement) run in
+it rewrites ``atmoscatter/data/ms_accuracy.json``, the renderer's error statement) and the
+twilight refinement of ``benchmarks/ms_deep_twilight.py`` run in
 the full mode only with ``--with-ms-study``: minutes while their stored reference
 (``docs/convergence/ms_reference_values.npz``) is current, half an hour more when the
 method changed.  The quick mode always runs its smoke test.  The spectral-sampling study (~20 min) rewrites
@@ -107,6 +108,11 @@ GENERATORS: tuple[Generator, ...] = (
         full_needs="--with-ms-study",
         notes="multiple scattering: default and accurate grid against a grid finer in every "
               "knob; the EXR header's figures"),
+    Generator(
+        "ms_deep_twilight", "benchmarks/ms_deep_twilight.py", (), ("--quick", "--out", "{out}"),
+        ("docs/convergence/ms_deep_twilight.md",), "~6 min", full_needs="--with-ms-study",
+        notes="multiple scattering: the default grid's horizon_n_sun refined in twilight, "
+              "against the study's stored reference (run after ms_convergence)"),
     Generator(
         "startup", "benchmarks/bench_startup.py", ("--write",), ("--quick",),
         ("docs/cli.md",), "~1 min", notes="start-up and first-render times of the CLI"),

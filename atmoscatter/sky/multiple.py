@@ -212,12 +212,15 @@ class MultipleScatteringGrid:
         (``docs/convergence.md``).
     horizon_n_sun : int or None
         Solar-zenith nodes (≥ 4) used instead of ``n_sun`` by :meth:`for_sun` for a sun
-        within :data:`HORIZON_SUN_ELEVATION` of the horizon (−8° to +6° elevation) seen by
-        an observer inside the atmosphere (``None``, the dataclass default: ``n_sun``
-        at every sun).  There the air the scene sees crosses the terminator, and the
-        field changes fastest with the solar zenith: with the default grid's 16 nodes the
-        total at sun 0° and −3° was 1.2 % and 2.5 % off, with 24 within 0.7 %
-        (``docs/convergence.md``).
+        within :data:`HORIZON_SUN_ELEVATION` (−18° to +6° elevation: sunset and twilight)
+        seen by an observer inside the atmosphere (``None``, the dataclass default:
+        ``n_sun`` at every sun).  There the air the scene sees crosses the terminator, and
+        the field changes fastest with the solar zenith: with the default grid's 16 nodes
+        the total at sun 0° and −3° was 1.2 % and 2.5 % off, with 24 within 0.7 %; at
+        −12°, −15° and −18° 16 nodes were 3.3 %, 37 % and 30 % off, 24 nodes 1.4 %, 3.0 %
+        and 2.3 % (at −18° the reference is not converged in solar zenith: grids finer
+        than 24 nodes differ from it by 8–10 %, which is the better estimate there;
+        ``docs/convergence.md``, ``benchmarks/ms_deep_twilight.py``).
     horizon_n_phi : int or None
         Azimuths (≥ 2) used instead of ``n_phi`` by :meth:`for_sun` in the same case as
         ``horizon_n_sun`` (``None``, the dataclass default: ``n_phi`` at every sun).  With
@@ -437,12 +440,16 @@ class MultipleScatteringGrid:
                        high_orders=high, band_orders_from=band)
 
 
-HORIZON_SUN_ELEVATION: tuple[float, float] = (-8.0, 6.0)
+HORIZON_SUN_ELEVATION: tuple[float, float] = (-18.0, 6.0)
 """Sun elevations [deg] (inclusive) at which :meth:`MultipleScatteringGrid.for_sun` uses
 ``horizon_n_sun`` solar-zenith nodes and ``horizon_n_phi`` azimuths for an observer inside
-the atmosphere: measured at sun 5°, 2°, 0°, −1°, −3° (ground) and 2° (12 km), where the
-daylight grid (16 nodes, 17 azimuths) missed the bounds or sat at them, and with 8° and
-10° (ground), −6° and −10° within them on 16 nodes (``docs/convergence.md``)."""
+the atmosphere (sunset and twilight): measured at sun 5°, 2°, 0°, −1°, −3° (ground) and
+2° (12 km), where the daylight grid (16 nodes, 17 azimuths) missed the bounds or sat at
+them, and at −12°, −15° and −18°, where 16 nodes were 3.3 %, 37 % and 30 % off (the
+first above the 3 % bound of issue 10); with 8° and 10° (ground) within them on 16 nodes.
+The band was −8° to +6° until the deep-twilight scenes were measured; between −8° and −10°
+16 nodes were within the bounds too, so extending it there costs those suns a longer first
+call for no measured need, against one band instead of two (``docs/convergence.md``)."""
 
 MULTIPLE_SCATTERING_GRID = MultipleScatteringGrid(n_altitude=32, n_sun=16, n_mu=32, n_phi=17,
                                                   sun_nodes="scene", band_orders_from=3,
@@ -453,10 +460,11 @@ altitude (haze) and view zenith (the zenith cap, the limb) than :data:`TABLE_MUL
 for about the same first call; with the sun up and the observer inside the atmosphere,
 orders from the third on are computed only in the band of nodes around the sun
 (``band_orders_from``); for an observer above the atmosphere 36 view cosines
-(``space_n_mu``: 32 left the limb's total at the 1 % bound), and for a sun near the horizon
-(:data:`HORIZON_SUN_ELEVATION`) 24 solar-zenith nodes and 19 azimuths (``horizon_n_sun``,
-``horizon_n_phi``: 16 nodes missed the bounds at and just below the horizon, 17 azimuths
-left sunset's multiple-scattering part at the 3 % bound); chosen from the
+(``space_n_mu``: 32 left the limb's total at the 1 % bound), and for a sun near or below
+the horizon (:data:`HORIZON_SUN_ELEVATION`, sunset and twilight down to −18°) 24
+solar-zenith nodes and 19 azimuths (``horizon_n_sun``, ``horizon_n_phi``: 16 nodes missed
+the bounds at and just below the horizon and at −12°, and were tens of per cent off
+below, 17 azimuths left sunset's multiple-scattering part at the 3 % bound); chosen from the
 error-against-run-time study and measured against a grid finer in every knob
 (``docs/convergence.md``)."""
 

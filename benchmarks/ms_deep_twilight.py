@@ -1,0 +1,126 @@
+"""Deep twilight: the default grid's solar-zenith nodes near the horizon refined beyond it.
+
+Usage (from the repository root)::
+
+    PYTHONPATH=. python benchmarks/ms_deep_twilight.py           # -> docs/convergence/ms_deep_twilight.md
+    PYTHONPATH=. python benchmarks/ms_deep_twilight.py --quick   # tiny grids -> a temp dir
+
+Below sun −10° the sky of a ground observer is lit by the sunlit upper air far toward the
+sun, and the field changes fastest with the solar zenith there: the one knob that moves
+the error is ``horizon_n_sun``, the solar-zenith nodes of the default grid for a sun near
+or below the horizon (:data:`~atmoscatter.sky.multiple.HORIZON_SUN_ELEVATION`).  This
+measures the study's twilight scenes (``ms_convergence.py``: −10°, −12°, −15°, −18°,
+turbidity 2.5, ground) with ``horizon_n_sun`` from the default's value up to 40 against the
+study's reference, read from its store (``docs/convergence/ms_reference_values.npz``; run
+``ms_convergence.py`` first when the method changed).  Refining a knob of the default
+grid past the reference's own resolution shows where the reference stops being the
+better answer: where the finer rows move away from it, the error figure of the default
+there is uncertain by about that much.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import tempfile
+import time
+from dataclasses import replace
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+import ms_convergence as mc  # noqa: E402  (sets ATMOSCATTER_CACHE_DIR=off first)
+
+SCENES = ("nautical_twilight", "nautical_twilight_end", "deep_twilight",
+          "astronomical_twilight_end")
+N_SUN = (16, 24, 32, 40)
+#: a grid over every sun (as the reference) with half as many solar-zenith nodes again as
+#: the reference and the default's other knobs: the reference refined in the knob that
+#: matters here (the reference grid itself refined so costs about twice its build)
+ALL_SUNS = replace(mc.REFERENCE[0], n_sun=96, n_altitude=32, n_mu=32, n_phi=19, order=3)
+QUICK_SCENES = ("civil_twilight",)
+QUICK_N_SUN = (4, 6)
+QUICK_ALL_SUNS = replace(mc.QUICK_REFERENCE[0], n_sun=14)
+
+
+def run(scenes, n_suns, default, reference, store, all_suns, progress=print):
+    """``({(scene, row): (e_total, e_ms)}, {(scene, row): first call [s]})``, ``row`` a
+    value of ``horizon_n_sun`` or ``"all"`` (the grid ``all_suns``)."""
+    mc.warm_up()
+    grid0, tol = default
+    errors, first = {}, {}
+    for akey, names in mc.by_atmosphere(scenes).items():
+        atm = mc.ATMOSPHERES[akey]()
+        # the study's reference of this atmosphere: every one of its scenes (the store's
+        # key), of which these are a part
+        every = [s for s in mc.SCENES if mc.SCENES[s][0] == akey] if store == mc.REFERENCE_STORE else names
+        ref, _, note = mc.reference_values(atm, every, reference, store, progress)
+        single = mc.single_of(atm, names)
+        for n in n_suns:
+            out, _, evals = mc.evaluate(atm, names, (replace(grid0, horizon_n_sun=n), tol))
+            for s in names:
+                errors[(s, n)] = mc.errors(out[s], ref[s], single[s])
+                first[(s, n)] = evals[s]
+            progress(f"{akey}: horizon_n_sun {n} done")
+        out, build, _ = mc.evaluate(atm, names, (all_suns, tol))
+        for s in names:
+            errors[(s, "all")] = mc.errors(out[s], ref[s], single[s])
+            first[(s, "all")] = build  # one field for every scene
+        progress(f"{akey}: all suns done")
+    return errors, first
+
+
+def markdown(scenes, n_suns, default, reference, all_suns, errors, first, machine, command):
+    lines = [
+        "Max relative error of the total / of the multiple-scattering part of the default "
+        f"grid with `horizon_n_sun` changed, against the study's reference "
+        f"({mc._grid_text(reference)}); first call [s] in brackets; the default's "
+        f"value ({default[0].horizon_n_sun}) in bold.",
+        "",
+        "| horizon_n_sun | " + " | ".join(f"{s} (sun {mc.SCENES[s][1]:g}°)" for s in scenes) + " |",
+        "|---:|" + "---|" * len(scenes),
+    ]
+    for n in n_suns:
+        cells = " | ".join(f"{mc._fmt(errors[(s, n)][0])} / {mc._fmt(errors[(s, n)][1])} "
+                           f"({first[(s, n)]:.1f})" for s in scenes)
+        label = f"**{n}**" if n == default[0].horizon_n_sun else str(n)
+        lines.append(f"| {label} | {cells} |")
+    cells = " | ".join(f"{mc._fmt(errors[(s, 'all')][0])} / {mc._fmt(errors[(s, 'all')][1])}"
+                       for s in scenes)
+    lines.append(f"| over every sun: {mc._grid_text((all_suns, default[1]))} | {cells} |")
+    lines += ["", "The last row is a grid over every sun like the reference, with more "
+              "solar-zenith nodes than it and the default's other knobs; one field serves "
+              f"every scene (built in {first[(scenes[0], 'all')]:.0f} s)."]
+    lines += ["", f"*{machine}, {time.strftime('%Y-%m-%d')}; `{command}`.*"]
+    return "\n".join(lines) + "\n"
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help="tiny grids, one scene, temp dir")
+    ap.add_argument("--out", default=None, help="output directory (default docs/convergence)")
+    args = ap.parse_args(argv)
+    if args.quick:
+        scenes, n_suns = QUICK_SCENES, QUICK_N_SUN
+        default = (replace(mc.QUICK_DEFAULT[0], horizon_n_sun=QUICK_N_SUN[0]), mc.QUICK_DEFAULT[1])
+        reference, all_suns = mc.QUICK_REFERENCE, QUICK_ALL_SUNS
+        out = Path(args.out or tempfile.mkdtemp(prefix="atmoscatter-ms-deep-twilight-"))
+        store = out / mc.REFERENCE_STORE.name
+    else:
+        scenes, n_suns, default, reference = SCENES, N_SUN, mc.DEFAULT, mc.REFERENCE
+        all_suns = ALL_SUNS
+        out = Path(args.out or mc.ROOT / "docs" / "convergence")
+        store = mc.REFERENCE_STORE
+    t0 = time.perf_counter()
+    errors, first = run(list(scenes), n_suns, default, reference, store, all_suns)
+    command = "PYTHONPATH=. python benchmarks/ms_deep_twilight.py" + (" --quick" if args.quick else "")
+    text = markdown(scenes, n_suns, default, reference, all_suns, errors, first, mc.machine_text(), command)
+    out.mkdir(parents=True, exist_ok=True)
+    mc._atomic_write(out / "ms_deep_twilight.md", text)
+    print(text)
+    print(f"wrote {out / 'ms_deep_twilight.md'} in {time.perf_counter() - t0:.0f} s")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
