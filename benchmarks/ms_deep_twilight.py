@@ -51,22 +51,19 @@ def run(scenes, n_suns, default, reference, store, all_suns, progress=print):
     errors, first = {}, {}
     for akey, names in mc.by_atmosphere(scenes).items():
         atm = mc.ATMOSPHERES[akey]()
-        # the study's reference of this atmosphere: every one of its scenes (the store's
+        # the study's reference of this atmosphere: of every one of its scenes (the store's
         # key), of which these are a part
-        every = [s for s in mc.SCENES if mc.SCENES[s][0] == akey] if store == mc.REFERENCE_STORE else names
-        ref, _, note = mc.reference_values(atm, every, reference, store, progress)
+        every = [s for s in mc.SCENES if mc.SCENES[s][0] == akey]
+        ref, _, _ = mc.reference_values(atm, every, reference, store, progress)
         single = mc.single_of(atm, names)
-        for n in n_suns:
-            out, _, evals = mc.evaluate(atm, names, (replace(grid0, horizon_n_sun=n), tol))
+        rows = [(n, replace(grid0, horizon_n_sun=n)) for n in n_suns] + [("all", all_suns)]
+        for row, grid in rows:
+            out, build, evals = mc.evaluate(atm, names, (grid, tol))
             for s in names:
-                errors[(s, n)] = mc.errors(out[s], ref[s], single[s])
-                first[(s, n)] = evals[s]
-            progress(f"{akey}: horizon_n_sun {n} done")
-        out, build, _ = mc.evaluate(atm, names, (all_suns, tol))
-        for s in names:
-            errors[(s, "all")] = mc.errors(out[s], ref[s], single[s])
-            first[(s, "all")] = build  # one field for every scene
-        progress(f"{akey}: all suns done")
+                errors[(s, row)] = mc.errors(out[s], ref[s], single[s])
+                # a grid over every sun builds one field for every scene
+                first[(s, row)] = evals[s] if grid.sun_nodes == "scene" else build
+            progress(f"{akey}: {row} done")
     return errors, first
 
 

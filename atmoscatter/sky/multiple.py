@@ -1015,7 +1015,7 @@ def _refine_log(field: _Field, logt: np.ndarray) -> np.ndarray:
                 mid = sum(w[q] * logt[i0 + q] for q in range(4))
             np.clip(mid, lo, hi, out=out[r * i + k])
 
-    _run_cells(interval, list(range(n - 1)), report=False)
+    _run_cells(interval, list(range(n - 1)))
     return out
 
 
@@ -1439,22 +1439,22 @@ def _compact(field: _Field, mc: _March, packed=None):
     return _Compact(loc, mc.ground, mc.t_end, mc.mus_end)
 
 
-def _run_cells(fn, cells, stage: str = "", report: bool = True):
+def _run_cells(fn, cells, stage: str = ""):
     """Apply ``fn`` to every grid cell, over a small thread pool (the kernels and most
     NumPy operations release the GIL); progress is reported as ``stage``
-    (:mod:`atmoscatter._progress`) unless ``report`` is false (steps too short to show)."""
+    (:mod:`atmoscatter._progress`; ``""``: not reported, for steps too short to show)."""
     total = len(cells)
     if _THREADS <= 1 or total < 2:
         for k, c in enumerate(cells):
             fn(c)
-            if report:
+            if stage:
                 _progress.report(stage, k + 1, total)
         return
     from concurrent.futures import ThreadPoolExecutor
 
     with ThreadPoolExecutor(max_workers=_THREADS) as pool:
         for k, _ in enumerate(pool.map(fn, cells)):
-            if report:
+            if stage:
                 _progress.report(stage, k + 1, total)
 
 
