@@ -896,6 +896,40 @@ def test_single_method_sets_order_one_only():
         multiple_scattering(atm, v[:2], s, grid=_COARSE, single_method="nope")
 
 
+def test_field_state_keeps_its_sources_within_their_budget(monkeypatch):
+    """A field state keeps at most ``_SOURCES_BYTES`` of per-order sources (the last two
+    always: a spectral twilight field of 15–25 orders kept them all, several GB); a later
+    request that needs a dropped order rebuilds the state and gives the values a state
+    that kept every order gives (the in-process and disk caches of summed fields off, so
+    each request sums the state's orders)."""
+    from atmoscatter.sky import multiple as M
+
+    monkeypatch.setenv("ATMOSCATTER_CACHE_DIR", "off")
+    monkeypatch.setattr(M, "_RESULTS_MAX", 0)
+    atm = ac.earth_turbidity_atmosphere(2.5)
+    grid = MultipleScatteringGrid(n_altitude=5, n_sun=6, n_mu=4, n_phi=5, order=2)
+    v = np.array([[0.0, 0.0, 1.0], [0.0, 0.6, 0.8], [0.7, 0.0, 0.1]])
+    s = _dir(50.0, 0.0)
+    requests = [dict(orders=8), dict(orders=3), dict(), dict(orders=5),
+                dict(order_tolerance=1e-4)]
+    M._clear_process_caches()
+    kept_all = [multiple_scattering(atm, v, s, grid=grid, **kw) for kw in requests]
+    (state,) = M._CACHE.values()
+    assert all(S is not None for S in state.S)
+    one = state.S[0].nbytes
+    # room for two and a half sources: every older one goes as the orders grow
+    monkeypatch.setattr(M, "_SOURCES_BYTES", int(2.5 * one))
+    M._clear_process_caches()
+    for kw, ref in zip(requests, kept_all, strict=True):
+        np.testing.assert_allclose(multiple_scattering(atm, v, s, grid=grid, **kw), ref,
+                                   rtol=1e-12, atol=0.0, err_msg=str(kw))
+        (state,) = M._CACHE.values()
+        kept = [S for S in state.S if S is not None]
+        assert len(kept) == 2 and state.S[-1] is not None and state.S[-2] is not None
+    assert len(state.S) > 2
+    M._clear_process_caches()
+
+
 def test_in_process_caches_hold_their_memory_budget(monkeypatch):
     """A process rendering many suns on a sun-centred grid keeps at most the caches'
     byte budget of fields (the newest always), and an evicted field comes back with the

@@ -515,10 +515,11 @@ def _table_azimuths(n_table: int, n_field: int) -> int:
     step = int(n_field) - 1
     return step * int(np.ceil((int(n_table) - 1) / step)) + 1
 
-_SUN_CENTRE, _SUN_WIDTH = 92.0, 16.0
+
+_SUN_CENTRE, _SUN_WIDTH = 92.0, 16.0  # [deg] where the solar-zenith nodes are densest
 #: node density at the sun of a ``sun_nodes="scene"`` grid relative to far from it [-]
 _SCENE_PEAK = 8.0
-_HORIZON_SPLIT = True  # μ quadrature split at each altitude's horizon (see _Field)  # [deg] where the solar-zenith nodes are densest
+_HORIZON_SPLIT = True  # μ quadrature split at each altitude's horizon (see _Field)
 _CACHE: dict = {}
 _CACHE_LOCK = threading.Lock()
 _CACHE_MAX = 4
@@ -535,6 +536,13 @@ _THREADS = max(1, min(4, os.cpu_count() or 1))
 #: before, fields of more than 12 wavelengths re-marched every node ray for every order
 #: (a 21-wavelength field: 7 min on the 2-core machine)
 _KEEP_BYTES = 2 * 2**30
+#: memory budget [bytes] of the per-order sources S^1, S^2, … a field state keeps (a later
+#: request for fewer orders, or another tolerance, sums them again).  Beyond it the oldest
+#: go but the last two, which the summation reads (:meth:`_FieldState._extend`); a request
+#: that needs a dropped one rebuilds the state (:func:`_field_for`).  One source of the
+#: default grid is about 25 MB at 3 wavelengths and 170 MB at 21: a spectral twilight field
+#: of 15–25 orders kept 2.5–4 GB of them before
+_SOURCES_BYTES = 2**30
 #: with orders=None, summation stops once the estimated tail is below this multiple of
 #: order_tolerance, and the tail is added (see _FieldState.converged_sum)
 _ACCELERATION = 30.0
@@ -1045,6 +1053,10 @@ def _gather(field: _Field, march: _March, logt: np.ndarray, nsc: int, nwl: int,
     return vals.reshape(N, nsc, nwl).sum(axis=1)
 
 
+class _SourceDropped(LookupError):
+    """A field state was asked for a sum that needs a source it dropped (``_SOURCES_BYTES``)."""
+
+
 class _FieldState:
     """Successive orders on the grid, extended on demand and cached per atmosphere."""
 
@@ -1195,16 +1207,43 @@ class _FieldState:
         n_low = n if K is None else min(n, K - 1)
         return self._prefix(0, n_low), (self._prefix(n_low, n) if n > n_low else None)
 
-    def _prefix(self, a: int, b: int) -> np.ndarray:
-        """``S^{a+1} + … + S^b`` (a fresh array), from ``self._sums[(a, b - 1)]``."""
+    def _prefix(self, a: int, b: int, copy: bool = True) -> np.ndarray:
+        """``S^{a+1} + … + S^b`` (a fresh array; ``copy=False``: the kept one), from
+        ``self._sums[(a, b - 1)]``.
+
+        Raises :class:`_SourceDropped` where it needs a source dropped to keep the state
+        within ``_SOURCES_BYTES``."""
         sums = self._sums
         if (a, b) not in sums:
             if b - a <= 1:
-                sums[(a, b)] = self.S[a] if b > a else np.zeros_like(self.S[0])
+                sums[(a, b)] = self._order(a) if b > a else np.zeros(*self._S_like)
             else:
-                sums[(a, b)] = self._prefix(a, b - 1) + self.S[b - 1]
+                sums[(a, b)] = self._prefix(a, b - 1, copy=False) + self._order(b - 1)
             sums.pop((a, b - 2), None)  # only the last two are read again
-        return sums[(a, b)].copy()
+        return sums[(a, b)].copy() if copy else sums[(a, b)]
+
+    def _order(self, k: int) -> np.ndarray:
+        """``S^{k+1}`` (``self.S[k]``), or :class:`_SourceDropped` if it was dropped."""
+        if self.S[k] is None:
+            raise _SourceDropped(k + 1)
+        return self.S[k]
+
+    def _drop_old(self):
+        """Hold the kept sources to ``_SOURCES_BYTES``: drop the oldest but the last two
+        (the decay test reads only those), once the running sums include the newest."""
+        n = len(self.S)
+        K = self._high_from()
+        n_low = n if K is None else min(n, K - 1)
+        self._prefix(0, n_low, copy=False)
+        if n > n_low:
+            self._prefix(n_low, n, copy=False)
+        kept = [k for k, S in enumerate(self.S) if S is not None]
+        size = sum(self.S[k].nbytes for k in kept)
+        for k in kept[:-2]:
+            if size <= _SOURCES_BYTES:
+                break
+            size -= self.S[k].nbytes
+            self.S[k] = None
 
     def _on_grid(self, low, high):
         """A split sum (:meth:`_split`) as one source on this grid's nodes."""
@@ -1228,11 +1267,15 @@ class _FieldState:
             self.L = self.high.next_field(self.S[-1], src, E, first=(k == K))
             self.L_field = self.high.field
             self.S.append(self._source(self.L, self.high.field, self.high.W))
+            self._drop_old()
             return
         if self.S:
             new = self._next_field(self.S[-1])
             self._L_prev, self.L = self.L, new  # _extrapolate_outside reads both
         self.S.append(self._source(self.L))
+        if len(self.S) == 1:
+            self._S_like = (self.S[0].shape, self.S[0].dtype)  # the empty sum's layout
+        self._drop_old()
 
     def converged_sum(self, tol: float, max_orders: int, accelerate: float = _ACCELERATION):
         """Σ S^k over all orders, to relative accuracy ``tol``.
@@ -1273,7 +1316,7 @@ class _FieldState:
             if top <= 0.0:  # nothing scatters twice
                 return self._on_grid(low, high), k, 0.0
             if len(self.S) >= 2:
-                last, prev = self.S[k - 2], self.S[k - 3]
+                last, prev = self._order(k - 2), self._order(k - 3)
                 if on_high and k - 2 == K - 1:  # the first high order: prev on this grid
                     prev = self.high.from_fine(prev)
                     g_prev = None
@@ -1512,14 +1555,16 @@ def _trim(cache: dict, max_entries: int, max_bytes: int, keep=None) -> None:
         cache.pop(old)
 
 
-def _state_for(atm_obj, atm, grid, albedo):
-    """The in-process field state (successive orders so far) of an atmosphere; the
-    caller holds ``_CACHE_LOCK``."""
+def _state_for(atm_obj, atm, grid, albedo, fresh=False):
+    """The in-process field state (successive orders so far) of an atmosphere (``fresh``:
+    a new one, replacing it); the caller holds ``_CACHE_LOCK``."""
     try:
         key = (atm_obj, grid, float(albedo))
         hash(key)
     except TypeError:  # unhashable custom atmosphere: no in-process caching
         return _FieldState(atm, grid, albedo)
+    if fresh:
+        _CACHE.pop(key, None)
     if key not in _CACHE:
         _trim(_CACHE, _CACHE_MAX - 1, _CACHE_BYTES)
         _CACHE[key] = _FieldState(atm, grid, albedo)
@@ -1611,15 +1656,21 @@ def _field_for(atm_obj, atm, grid, albedo, orders, tol=None):
     field = _Field(atm, grid)
     key = _disk_key(atm_obj, grid, albedo, orders, tol)
 
+    def summed(st):
+        if orders is None:
+            return st.converged_sum(tol, _MAX_AUTO_ORDERS)
+        return st.source_sum(orders), orders, 0.0
+
     def compute():
         # one lock: renderers call from several threads, and a field state must neither
         # be built twice nor extended by two threads at once
         with _CACHE_LOCK:
             st = _state_for(atm_obj, atm, grid, albedo)
-            if orders is None:
-                S_sum, n, tail = st.converged_sum(tol, _MAX_AUTO_ORDERS)
-            else:
-                S_sum, n, tail = st.source_sum(orders), orders, 0.0
+            try:
+                S_sum, n, tail = summed(st)
+            except _SourceDropped:  # an earlier order went for memory: start again
+                st = _state_for(atm_obj, atm, grid, albedo, fresh=True)
+                S_sum, n, tail = summed(st)
             if grid.sun_nodes == "scene":
                 # a field of one sun is rarely extended: its kept node rays (the bulk of
                 # the state's memory) go, and are marched again if more orders are asked
