@@ -803,42 +803,44 @@ def test_scene_grid_widens_for_observers_above_the_atmosphere():
     assert M._sun_centre(atm, s, 500e3)[1] == np.ceil(dip)
 
 
-def test_band_of_a_scene_grid_is_the_sun_band_and_only_in_daylight_inside_the_atmosphere():
+def test_band_of_a_scene_grid_is_the_sun_band_and_only_inside_the_atmosphere():
     """``band_orders_from``: orders from it on are computed at the nodes within
-    ``sun_width`` of the sun and one beyond on each side; for_sun switches it off for a
-    sun below the horizon and for observers above the atmosphere (where the light comes
-    from far outside the band), and a grid over every sun has no band."""
+    ``sun_width`` of the sun and one beyond on each side, the sun up or down; for_sun
+    switches it off for observers above the atmosphere (where the light comes from far
+    outside the band), and a grid over every sun has no band."""
     from atmoscatter.sky import _quadrature as qd
     from atmoscatter.sky import multiple as M
 
     g = ac.MULTIPLE_SCATTERING_GRID
     assert g.band_orders_from == 3
     atm = qd.prepare_atmosphere(_atm())
-    for zen in (0.0, 30.0, 60.0, 89.0, 90.0):
+    for zen in (0.0, 30.0, 60.0, 89.0, 90.0, 91.0, 96.0, 108.0):
         f = M._Field(atm, g.for_sun(zen))
         th = np.degrees(f.ths)
         band = f.band
         assert band is not None and np.all(np.diff(band) == 1), zen
         inside = np.flatnonzero(np.abs(th - zen) <= g.sun_width)
-        assert band[0] == max(inside[0] - 1, 0) and band[-1] == inside[-1] + 1, zen
+        assert band[0] == max(inside[0] - 1, 0) and band[-1] == min(inside[-1] + 1, th.size - 1), zen
         assert band.size < th.size, zen
-    for zen, dip in ((91.0, 0.0), (96.0, 0.0), (30.0, 22.0)):
-        assert g.for_sun(zen, dip).band_orders_from is None
-        assert M._Field(atm, g.for_sun(zen, dip)).band is None
+    for zen in (30.0, 96.0):
+        assert g.for_sun(zen, 22.0).band_orders_from is None
+        assert M._Field(atm, g.for_sun(zen, 22.0)).band is None
     assert M._Field(atm, replace(ac.TABLE_MULTIPLE_SCATTERING_GRID, band_orders_from=3)).band is None
     assert "only in the band" in g.for_sun(30.0).describe()
-    assert "only in the band" not in g.for_sun(96.0).describe()
+    assert "only in the band" in g.for_sun(96.0).describe()
+    assert "only in the band" not in g.for_sun(96.0, 22.0).describe()
 
 
 @pytest.mark.parametrize("turbidity", [1.5, 10.0])
-@pytest.mark.parametrize("sun_zenith", [30.0, 85.0])
+@pytest.mark.parametrize("sun_zenith", [30.0, 85.0, 100.0, 106.0])
 def test_band_orders_give_the_answer_of_every_node(monkeypatch, turbidity, sun_zenith):
     """One answer: the band (orders ≥ 3 only near the sun, convergence judged there) gives
     the values of the same grid computing every order at every node, on the ground and at
-    12 km, with automatic and fixed orders.  Bound: the summation's own accuracy, the
-    default ``order_tolerance`` (1e-3 of the multiple-scattering part), times 3 for the
-    two stops of the automatic sum (each within it) and the extrapolated nodes outside
-    the band, which the band's edge nodes read."""
+    12 km, with automatic and fixed orders, in daylight and twilight (sun −10°, −16°).
+    Bound: the summation's own accuracy, the default ``order_tolerance`` (1e-3 of the
+    multiple-scattering part), times 3 for the two stops of the automatic sum (each within
+    it) and the extrapolated nodes outside the band, which the band's edge nodes read.
+    (Measured worst: 6e-4, T 10, sun −16°, ground, automatic; with fixed orders ≤ 2e-5.)"""
     monkeypatch.setenv("ATMOSCATTER_CACHE_DIR", "off")
     atm = ac.earth_turbidity_atmosphere(turbidity)
     band = MultipleScatteringGrid(n_altitude=16, n_sun=12, n_mu=12, n_phi=9, sun_nodes="scene",
@@ -854,6 +856,35 @@ def test_band_orders_give_the_answer_of_every_node(monkeypatch, turbidity, sun_z
             assert np.all(np.isfinite(a)) and np.all(a > 0)
             ms_part = b - ss
             assert np.max(np.abs(a - b) / ms_part) <= 3e-3, (alt, orders)
+
+
+@pytest.mark.parametrize("turbidity", [1.5, 10.0])
+@pytest.mark.parametrize("sun_zenith", [60.0, 100.0, 106.0, 108.0])
+def test_automatic_orders_meet_their_tolerance_at_twilight(monkeypatch, turbidity, sun_zenith):
+    """The automatic sum (``orders=None``) stops within its tolerance of the converged sum
+    (the same grid summed to ``order_tolerance=1e-6``, a thousand times tighter) in the
+    part the scene sees, also at twilight.  Its decay test used to ignore sources below
+    1e-6 of the grid's brightest, which at twilight is in the sunlit columns: the air the
+    scene saw went untested, and at T 1.5, sun −16° the sum was 7.3e-3 off at
+    ``order_tolerance=1e-3`` (``_FieldState._floor``).  Bound: 3 × the tolerance (the
+    tail's extrapolation is judged on the sources at the nodes, the error here on the
+    radiance of the directions; measured worst 2.1e-3, T 10, sun −18°, ground — the stop
+    rule does not hold the tolerance itself in thick haze at twilight — and ≤ 1.7e-4 at
+    T 1.5)."""
+    monkeypatch.setenv("ATMOSCATTER_CACHE_DIR", "off")
+    atm = ac.earth_turbidity_atmosphere(turbidity)
+    g = MultipleScatteringGrid(n_altitude=16, n_sun=12, n_mu=12, n_phi=9, sun_nodes="scene",
+                               band_orders_from=3)
+    s = _dir(sun_zenith, 180.0)
+    v = np.array([_dir(z, a) for z in (0.0, 45.0, 80.0, 88.0, 89.5) for a in (0.0, 90.0, 180.0)])
+    for alt in (0.0, 12e3):
+        ss = ac.single_scattering(atm, v, s, altitude=alt)
+        tight = multiple_scattering(atm, v, s, altitude=alt, grid=g, order_tolerance=1e-6)
+        auto = multiple_scattering(atm, v, s, altitude=alt, grid=g, order_tolerance=1e-3)
+        ms_part = tight - ss
+        seen = ms_part > 1e-6 * np.max(ms_part, axis=0)
+        err = np.max(np.abs(auto - tight)[seen] / ms_part[seen])
+        assert err <= 3e-3, (alt, err)
 
 
 def test_scene_grid_without_a_sun_has_no_nodes():

@@ -30,7 +30,7 @@ def _numerical_defaults(model: str) -> dict:
         # every named grid (Scene.ms_grid selects one by name: a change of either grid
         # must re-render the files made with it)
         out["multiple"] = [{k: repr(g) for k, g in multiple.MULTIPLE_SCATTERING_GRIDS.items()},
-                           multiple._FIELD_VERSION]
+                           multiple._FIELD_VERSION, multiple._SUM_RULE]
     return out
 
 
