@@ -144,6 +144,9 @@ KNOBS = {
     "n_altitude": (24, 32),
     "order": (2, 3),
     "order_tolerance": (1e-2, 1e-3, 1e-4),
+    # orders ≥ 3 only in the band of sun nodes around the scene's sun (the default), or
+    # every order at every node ("off")
+    "band_orders_from": (3, "off"),
 }
 
 
@@ -166,6 +169,7 @@ KNOB_SCENES = {
     "space_n_mu": lambda name: SCENES[name][2] > 100e3,
     "horizon_n_sun": _near_horizon,
     "horizon_n_phi": _near_horizon,
+    "band_orders_from": lambda name: SCENES[name][2] <= 100e3,  # off from space anyway
 }
 #: atmospheres of the one-knob sweep in the full run (the others: default grid only)
 SWEEP_ATMOSPHERES = ("earth_t2.5",)
@@ -332,6 +336,9 @@ def configs(knobs, default):
         for val in values:
             if knob == "order_tolerance":
                 yield knob, val, (grid0, float(val))
+            elif knob == "band_orders_from":
+                yield knob, val, (replace(grid0, band_orders_from=None if val == "off" else int(val)),
+                                  tol0)
             else:
                 yield knob, val, (replace(grid0, **{knob: int(val)}), tol0)
 
@@ -573,7 +580,8 @@ def plot(records, path, sweep_atm):
                 e.append(max(float(r[k]) for r in sel))
             ax.loglog(t, e, "o-", label=knob)
             for ti, ei, v in zip(t, e, vals, strict=True):
-                ax.annotate(f"{float(v):g}", (ti, ei), fontsize=7, xytext=(3, 3),
+                ax.annotate(v if isinstance(v, str) else f"{float(v):g}", (ti, ei), fontsize=7,
+                            xytext=(3, 3),
                             textcoords="offset points")
         d = [r for r in sel_rows if r["is_default"] in (True, "True")]
         if d:
