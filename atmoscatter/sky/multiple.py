@@ -1203,14 +1203,15 @@ class _FieldState:
         r_out = np.clip(r[:, out], 0.0, cap)
         Lnew[:, out] = a[:, out] * r_out[:, :, None, None, :]
 
-    def _split(self, n: int):
+    def _split(self, n: int, copy: bool = True):
         """``(Σ of the sources S^1..S^n on this grid, Σ of those on high_orders or None)``,
         from running sums kept per order (added in order, as a sum over the list would:
         the same values, without forming every sum anew in each order of the
-        automatic loop)."""
+        automatic loop; ``copy=False``: the kept sums themselves)."""
         K = self._high_from()
         n_low = n if K is None else min(n, K - 1)
-        return self._prefix(0, n_low), (self._prefix(n_low, n) if n > n_low else None)
+        return (self._prefix(0, n_low, copy),
+                self._prefix(n_low, n, copy) if n > n_low else None)
 
     def _prefix(self, a: int, b: int, copy: bool = True) -> np.ndarray:
         """``S^{a+1} + … + S^b`` (a fresh array; ``copy=False``: the kept one), from
@@ -1221,7 +1222,7 @@ class _FieldState:
         sums = self._sums
         if (a, b) not in sums:
             if b - a <= 1:
-                sums[(a, b)] = self._order(a) if b > a else np.zeros(*self._S_like)
+                sums[(a, b)] = self._order(a) if b > a else np.zeros_like(self._order(0))
             else:
                 sums[(a, b)] = self._prefix(a, b - 1, copy=False) + self._order(b - 1)
             sums.pop((a, b - 2), None)  # only the last two are read again
@@ -1236,14 +1237,11 @@ class _FieldState:
     def _drop_old(self):
         """Hold the kept sources to ``_SOURCES_BYTES``: drop the oldest but the last two
         (the decay test reads only those), once the running sums include the newest."""
-        n = len(self.S)
-        K = self._high_from()
-        n_low = n if K is None else min(n, K - 1)
-        self._prefix(0, n_low, copy=False)
-        if n > n_low:
-            self._prefix(n_low, n, copy=False)
         kept = [k for k, S in enumerate(self.S) if S is not None]
         size = sum(self.S[k].nbytes for k in kept)
+        if size <= _SOURCES_BYTES:
+            return
+        self._split(len(self.S), copy=False)  # the sums hold every source before any goes
         for k in kept[:-2]:
             if size <= _SOURCES_BYTES:
                 break
@@ -1278,8 +1276,6 @@ class _FieldState:
             new = self._next_field(self.S[-1])
             self._L_prev, self.L = self.L, new  # _extrapolate_outside reads both
         self.S.append(self._source(self.L))
-        if len(self.S) == 1:
-            self._S_like = (self.S[0].shape, self.S[0].dtype)  # the empty sum's layout
         self._drop_old()
 
     def _floor(self, total: np.ndarray, top: float, field: _Field):
