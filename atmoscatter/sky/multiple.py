@@ -893,12 +893,13 @@ class _Field:
         n_mu = self.grid.n_mu
         n_dir = n_mu * nphi
         # one operator per distinct quadrature (altitudes below the limb split share the
-        # double Gauss one), built over the thread pool: the phase functions and the
-        # products release the GIL, and each operator is written by one thread only
+        # double Gauss one), built over the thread pool into the result itself (no
+        # stacked copy): the phase functions and the products release the GIL, and each
+        # operator is written by one thread only
         keys = {}
         for i, mu_q in enumerate(self.mu_q):
             keys.setdefault(mu_q.tobytes(), i)
-        built = {}
+        W = np.empty((len(self.mu_q), len(self.atm.scatterers), d_out.shape[0], n_dir))
 
         def one(i):
             mu_q, w_q = self.mu_q[i], self.mu_wq[i]
@@ -907,21 +908,21 @@ class _Field:
             dfull = np.stack([st * np.cos(ph_f), st * np.sin(ph_f), mu_f], axis=-1).reshape(-1, 3)
             wfull = (w_q[:, None] * np.ones_like(ph_f)).ravel()
             cos = np.clip(d_out @ dfull.T, -1.0, 1.0)
-            per = []
-            for _, _, phase in self.atm.scatterers:
+            for c, (_, _, phase) in enumerate(self.atm.scatterers):
                 p = np.asarray(phase(cos), dtype=float) * wfull[None, :]
                 p /= np.sum(p, axis=1, keepdims=True)
                 # fold φ and 2π − φ onto the half circle (the sums np.add.at over
                 # ``target`` would form, in the same order)
                 p = p.reshape(-1, n_mu, 2 * (nphi - 1))
-                folded = p[:, :, :nphi].copy()
+                folded = W[i, c].reshape(-1, n_mu, nphi)
+                folded[...] = p[:, :, :nphi]
                 folded[:, :, 1 : nphi - 1] += p[:, :, : nphi - 1 : -1]
-                per.append(folded.reshape(-1, n_dir))
-            built[i] = np.asarray(per)
 
         _run_cells(one, list(keys.values()), "multiple scattering: phase operators")
-        out = [built[keys[mu_q.tobytes()]] for mu_q in self.mu_q]
-        return np.asarray(out)
+        for i, mu_q in enumerate(self.mu_q):
+            if keys[mu_q.tobytes()] != i:
+                W[i] = W[keys[mu_q.tobytes()]]
+        return W
 
 
 def _gauss_split(edges, counts):
@@ -1326,18 +1327,21 @@ class _FieldState:
         g_prev = None
         K = self._high_from()
         band = self.field.band
+        # the nodes the test looks at (a band exists only without high_orders, and is a
+        # contiguous run of solar-zenith nodes: a view, no copy)
+        test = slice(None) if band is None else slice(int(band[0]), int(band[-1]) + 1)
         while True:
             self.source_sum(k)
-            low, high = self._split(k - 1)
+            # the kept running sums themselves (no copy: only read here); the sum returned
+            # is a fresh array on this grid
+            low, high = self._split(k - 1, copy=False)
             # the decay test runs on the grid of the last order (on high_orders, the sum
-            # and the previous order resampled there); the sum returned is on this grid
+            # and the previous order resampled there)
             on_high = high is not None
             total = low if not on_high else self.high.from_fine(low) + high
-            # the nodes the test looks at (a band exists only without high_orders)
-            test = slice(None) if band is None else band
             top = float(np.max(total[:, test])) if total.size else 0.0
             if top <= 0.0:  # nothing scatters twice
-                return self._on_grid(low, high), k, 0.0
+                return self._on_grid(*self._split(k - 1)), k, 0.0
             if len(self.S) >= 2:
                 last, prev = self._order(k - 2), self._order(k - 3)
                 if on_high and k - 2 == K - 1:  # the first high order: prev on this grid
@@ -1346,29 +1350,43 @@ class _FieldState:
                 floor = self._floor(total, top, self.high.field if on_high else self.field)
                 m_prev = float(np.max(prev[:, test]))
                 r_all = float(np.max(last[:, test])) / m_prev if m_prev > 0 else 0.0
-                with np.errstate(divide="ignore", invalid="ignore"):
-                    r = np.where(prev > floor, last / np.where(prev > floor, prev, 1.0), r_all)
-                r = np.clip(r, 0.0, 0.98)
-                g = r / (1.0 - r)
-                tail = last * g
-                rel = float(np.max((tail / (total + floor))[:, test]))
+
+                # the test reads the band only: r, g and the tail are formed there (the
+                # same values, elementwise, as over the whole grid); the tail added to the
+                # sum is formed everywhere, once, at the stop
+                g = _growth(last, prev, floor, r_all, test)
+                lt, fl = last[:, test], (floor[:, test] if np.ndim(floor) else floor)
+                rel = float(np.max(lt * g / (total[:, test] + fl)))
                 if accelerate <= 1.0:
                     if rel <= tol or k >= max_orders:
-                        return self._on_grid(low, high), k, rel
+                        return self._on_grid(*self._split(k - 1)), k, rel
                 else:
                     drift = (
-                        float(np.max((np.abs(g - g_prev) / np.maximum(g, 1e-300)
-                                      * (last > floor))[:, test]))
+                        float(np.max(np.abs(g - g_prev) / np.maximum(g, 1e-300) * (lt > fl)))
                         if g_prev is not None else np.inf
                     )
                     if (rel <= accelerate * tol and rel * drift <= tol) or rel <= tol:
                         # the tail lives on the grid of the last order
+                        low, high = self._split(k - 1)
+                        tail = last * (g if band is None else _growth(last, prev, floor, r_all, slice(None)))
                         with_tail = (low, high + tail) if on_high else (low + tail, None)
                         return self._on_grid(*with_tail), k, rel * min(drift, 1.0)
                     if k >= max_orders:
-                        return self._on_grid(low, high), k, rel
+                        return self._on_grid(*self._split(k - 1)), k, rel
                 g_prev = g
             k += 1
+
+
+def _growth(last, prev, floor, r_all, sl):
+    """``r/(1 − r)`` of the decay test of :meth:`_FieldState.converged_sum` on the
+    solar-zenith nodes ``sl``, elementwise: ``r = last/prev`` where ``prev`` is above the
+    floor (scalar or per column, :meth:`_FieldState._floor`), else ``r_all``, capped at
+    0.98."""
+    pv, fl = prev[:, sl], (floor[:, sl] if np.ndim(floor) else floor)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        r = np.where(pv > fl, last[:, sl] / np.where(pv > fl, pv, 1.0), r_all)
+    r = np.clip(r, 0.0, 0.98)
+    return r / (1.0 - r)
 
 
 def _node_sample_order(field: _Field, h: np.ndarray, mu: np.ndarray) -> np.ndarray:
