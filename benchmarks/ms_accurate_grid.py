@@ -19,10 +19,8 @@ subject of ``scripts/ms_reference_check.py`` (DISORT, Monte Carlo).
 
 from __future__ import annotations
 
-import argparse
 import json
 import sys
-import tempfile
 import time
 from dataclasses import asdict, replace
 from pathlib import Path
@@ -121,30 +119,22 @@ def accuracy_json(scenes, grids, reference, rows, machine, command):
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--quick", action="store_true", help="tiny grids, two scenes, temp dir")
-    ap.add_argument("--out", default=None, help="output directory (default docs/convergence)")
-    args = ap.parse_args(argv)
-    if args.quick:
+    cl = mc.study_command_line(__file__, __doc__, "tiny grids, two scenes, temp dir", argv)
+    if cl["quick"]:
         scenes, grids, reference = ["clear_noon", "civil_twilight"], QUICK_GRIDS, QUICK_REFERENCE
         candidates = QUICK_CANDIDATES
-        out = Path(args.out or tempfile.mkdtemp(prefix="atmoscatter-ms-accurate-"))
-        store = out / mc.REFERENCE_STORE.name
     else:
         scenes, grids, reference = list(mc.SCENES), GRIDS, REFERENCE
         candidates = CANDIDATES
-        out = Path(args.out or mc.ROOT / "docs" / "convergence")
-        store = mc.REFERENCE_STORE
+    out, command = cl["out"], cl["command"]
     t0 = time.perf_counter()
-    rows, builds, t_ref = run(scenes, {**grids, **candidates}, reference, store=store)
+    rows, builds, t_ref = run(scenes, {**grids, **candidates}, reference, store=cl["store"])
     machine = mc.machine_text()
-    command = "PYTHONPATH=. python benchmarks/ms_accurate_grid.py" + (" --quick" if args.quick else "")
     text = markdown(scenes, {**grids, **candidates}, reference, rows, builds, t_ref, machine,
                     command)
     mc._atomic_write(out / "ms_accurate_grid.md", text)
     js = accuracy_json(scenes, grids, reference, rows, machine, command)
-    official = not (args.quick or args.out)
-    js_path = (mc.ROOT / "atmoscatter" / "data" if official else out) / "ms_accuracy.json"
+    js_path = (mc.ROOT / "atmoscatter" / "data" if cl["official"] else out) / "ms_accuracy.json"
     mc._atomic_write(js_path, json.dumps(js, indent=1) + "\n")
     print(text)
     print(f"wrote {out / 'ms_accurate_grid.md'} and {js_path} in {time.perf_counter() - t0:.0f} s")

@@ -147,6 +147,9 @@ KNOBS = {
     # orders ≥ 3 only in the band of sun nodes around the scene's sun (the default), or
     # every order at every node ("off")
     "band_orders_from": (3, "off"),
+    # half-width of that band [deg] (the default: 6; below TWILIGHT_BAND_ELEVATION the
+    # grid's sun_width, 12, whatever this says)
+    "band_width": (6, 12),
 }
 
 
@@ -170,6 +173,8 @@ KNOB_SCENES = {
     "horizon_n_sun": _near_horizon,
     "horizon_n_phi": _near_horizon,
     "band_orders_from": lambda name: SCENES[name][2] <= 100e3,  # off from space anyway
+    "band_width": lambda name: (SCENES[name][2] <= 100e3
+                                and SCENES[name][1] >= ms.TWILIGHT_BAND_ELEVATION),
 }
 #: atmospheres of the one-knob sweep in the full run (the others: default grid only)
 SWEEP_ATMOSPHERES = ("earth_t2.5",)
@@ -336,6 +341,8 @@ def configs(knobs, default):
         for val in values:
             if knob == "order_tolerance":
                 yield knob, val, (grid0, float(val))
+            elif knob == "band_width":
+                yield knob, val, (replace(grid0, band_width=float(val)), tol0)
             elif knob == "band_orders_from":
                 yield knob, val, (replace(grid0, band_orders_from=None if val == "off" else int(val)),
                                   tol0)
@@ -418,6 +425,27 @@ def study(scenes, knobs, default, reference, sweep_atms, progress=print, on_atmo
 # ----------------------------------------------------------------------------------------
 # outputs
 # ----------------------------------------------------------------------------------------
+def study_command_line(script: str, doc: str, quick_help: str, argv=None) -> dict:
+    """The command line shared by the studies that read this study's reference
+    (``--quick``: tiny grids into a temp dir; ``--out``): ``{"quick", "out", "store",
+    "command", "official"}`` — the output directory, the reference store to read, the
+    command to quote on the page, and whether the run writes the committed outputs."""
+    ap = argparse.ArgumentParser(description=doc.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help=quick_help)
+    ap.add_argument("--out", default=None, help="output directory (default docs/convergence)")
+    args = ap.parse_args(argv)
+    name = Path(script).name
+    if args.quick:
+        out = Path(args.out or tempfile.mkdtemp(prefix=f"atmoscatter-{Path(script).stem}-"))
+        store = out / REFERENCE_STORE.name
+    else:
+        out = Path(args.out or ROOT / "docs" / "convergence")
+        store = REFERENCE_STORE
+    return {"quick": args.quick, "out": out, "store": store,
+            "command": f"PYTHONPATH=. python benchmarks/{name}" + (" --quick" if args.quick else ""),
+            "official": not (args.quick or args.out)}
+
+
 def _atomic_write(path: Path, text: str):
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name + ".", suffix=".tmp")
@@ -493,7 +521,9 @@ def _grid_text(cfg):
     if g.sun_nodes == "scene":
         text += f", solar zenith centred on the sun (±{g.sun_width:g}°)"
         if g.band_orders_from is not None:
-            text += f", orders ≥ {g.band_orders_from} in the band when the sun is up"
+            text += (f", orders ≥ {g.band_orders_from} in the band of ±{g._band_width():g}° "
+                     f"(±{g.sun_width:g}° below {ms.TWILIGHT_BAND_ELEVATION:g}°) with the "
+                     "observer in the atmosphere")
     if g.space_n_mu is not None:
         text += f", n_mu {g.space_n_mu} for an observer in space"
     near = [f"{name} {value}" for name, value in (("n_sun", g.horizon_n_sun),

@@ -20,9 +20,7 @@ there is uncertain by about that much.
 
 from __future__ import annotations
 
-import argparse
 import sys
-import tempfile
 import time
 from dataclasses import replace
 from pathlib import Path
@@ -93,25 +91,19 @@ def markdown(scenes, n_suns, default, reference, all_suns, errors, first, machin
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--quick", action="store_true", help="tiny grids, one scene, temp dir")
-    ap.add_argument("--out", default=None, help="output directory (default docs/convergence)")
-    args = ap.parse_args(argv)
-    if args.quick:
+    cl = mc.study_command_line(__file__, __doc__, "tiny grids, one scene, temp dir", argv)
+    if cl["quick"]:
         scenes, n_suns = QUICK_SCENES, QUICK_N_SUN
         default = (replace(mc.QUICK_DEFAULT[0], horizon_n_sun=QUICK_N_SUN[0]), mc.QUICK_DEFAULT[1])
         reference, all_suns = mc.QUICK_REFERENCE, QUICK_ALL_SUNS
-        out = Path(args.out or tempfile.mkdtemp(prefix="atmoscatter-ms-deep-twilight-"))
-        store = out / mc.REFERENCE_STORE.name
     else:
         scenes, n_suns, default, reference = SCENES, N_SUN, mc.DEFAULT, mc.REFERENCE
         all_suns = ALL_SUNS
-        out = Path(args.out or mc.ROOT / "docs" / "convergence")
-        store = mc.REFERENCE_STORE
+    out = cl["out"]
     t0 = time.perf_counter()
-    errors, first = run(list(scenes), n_suns, default, reference, store, all_suns)
-    command = "PYTHONPATH=. python benchmarks/ms_deep_twilight.py" + (" --quick" if args.quick else "")
-    text = markdown(scenes, n_suns, default, reference, all_suns, errors, first, mc.machine_text(), command)
+    errors, first = run(list(scenes), n_suns, default, reference, cl["store"], all_suns)
+    text = markdown(scenes, n_suns, default, reference, all_suns, errors, first, mc.machine_text(),
+                    cl["command"])
     out.mkdir(parents=True, exist_ok=True)
     mc._atomic_write(out / "ms_deep_twilight.md", text)
     print(text)

@@ -114,6 +114,11 @@ GENERATORS: tuple[Generator, ...] = (
         notes="multiple scattering: the default grid's horizon_n_sun refined in twilight, "
               "against the study's stored reference (run after ms_convergence)"),
     Generator(
+        "ms_band_width", "benchmarks/ms_band_width.py", (), ("--quick", "--out", "{out}"),
+        ("docs/convergence/ms_band_width.md",), "~15 min", full_needs="--with-ms-study",
+        notes="multiple scattering: the band of high orders, narrow and full, against every "
+              "node computed (one answer)"),
+    Generator(
         "startup", "benchmarks/bench_startup.py", ("--write",), ("--quick",),
         ("docs/cli.md",), "~1 min", notes="start-up and first-render times of the CLI"),
     Generator(

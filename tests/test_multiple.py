@@ -273,6 +273,8 @@ def test_large_batches_give_the_answer_of_small_ones(monkeypatch, turbidity, sun
      ({"sun_width": 0.0}, r"sun_width must be in \(0, 180\]"),
      ({"high_orders_from": 1}, "high_orders_from must be an integer >= 2"),
      ({"band_orders_from": 2}, "band_orders_from must be None or an integer >= 3"),
+     ({"band_width": 0.0}, r"band_width must be None or in \(0, 180\]"),
+     ({"band_width": "6"}, r"band_width must be None or in \(0, 180\]"),
      ({"band_orders_from": True}, "band_orders_from must be None or an integer >= 3"),
      ({"space_n_mu": 35}, "space_n_mu must be None or an even integer >= 2"),
      ({"space_n_mu": 0}, "space_n_mu must be None or an even integer >= 2"),
@@ -805,7 +807,8 @@ def test_scene_grid_widens_for_observers_above_the_atmosphere():
 
 def test_band_of_a_scene_grid_is_the_sun_band_and_only_inside_the_atmosphere():
     """``band_orders_from``: orders from it on are computed at the nodes within
-    ``sun_width`` of the sun and one beyond on each side, the sun up or down; for_sun
+    ``band_width`` of the sun (``sun_width`` below ``TWILIGHT_BAND_ELEVATION``) and one
+    beyond on each side, the sun up or down; for_sun
     switches it off for observers above the atmosphere (where the light comes from far
     outside the band), and a grid over every sun has no band."""
     from atmoscatter.sky import _quadrature as qd
@@ -814,12 +817,16 @@ def test_band_of_a_scene_grid_is_the_sun_band_and_only_inside_the_atmosphere():
     g = ac.MULTIPLE_SCATTERING_GRID
     assert g.band_orders_from == 3
     atm = qd.prepare_atmosphere(_atm())
-    for zen in (0.0, 30.0, 60.0, 89.0, 90.0, 91.0, 96.0, 108.0):
+    assert (g.band_width, M.TWILIGHT_BAND_ELEVATION) == (6.0, -6.0)
+    for zen in (0.0, 30.0, 60.0, 89.0, 90.0, 91.0, 96.0, 96.5, 108.0):
         f = M._Field(atm, g.for_sun(zen))
         th = np.degrees(f.ths)
         band = f.band
         assert band is not None and np.all(np.diff(band) == 1), zen
-        inside = np.flatnonzero(np.abs(th - zen) <= g.sun_width)
+        # ±6° (band_width) down to civil twilight's end, ±sun_width below it
+        width = g.band_width if 90.0 - zen >= M.TWILIGHT_BAND_ELEVATION else g.sun_width
+        assert g.for_sun(zen)._band_width() == width
+        inside = np.flatnonzero(np.abs(th - zen) <= width)
         assert band[0] == max(inside[0] - 1, 0) and band[-1] == min(inside[-1] + 1, th.size - 1), zen
         assert band.size < th.size, zen
     for zen in (30.0, 96.0):
@@ -832,11 +839,13 @@ def test_band_of_a_scene_grid_is_the_sun_band_and_only_inside_the_atmosphere():
 
 
 @pytest.mark.parametrize("turbidity", [1.5, 10.0])
-@pytest.mark.parametrize("sun_zenith", [30.0, 85.0, 100.0, 106.0])
+@pytest.mark.parametrize("sun_zenith", [30.0, 85.0, 96.0, 100.0, 106.0])
 def test_band_orders_give_the_answer_of_every_node(monkeypatch, turbidity, sun_zenith):
     """One answer: the band (orders ≥ 3 only near the sun, convergence judged there) gives
     the values of the same grid computing every order at every node, on the ground and at
-    12 km, with automatic and fixed orders, in daylight and twilight (sun −10°, −16°).
+    12 km, with automatic and fixed orders, in daylight and twilight (sun −10°, −16°),
+    with the default's narrow band (``band_width`` 6°) down to civil twilight's end
+    (sun −6°) and the full ``sun_width`` below it.
     Bound: the summation's own accuracy, the default ``order_tolerance`` (1e-3 of the
     multiple-scattering part), times 3 for the two stops of the automatic sum (each within
     it) and the extrapolated nodes outside the band, which the band's edge nodes read.
@@ -844,7 +853,7 @@ def test_band_orders_give_the_answer_of_every_node(monkeypatch, turbidity, sun_z
     monkeypatch.setenv("ATMOSCATTER_CACHE_DIR", "off")
     atm = ac.earth_turbidity_atmosphere(turbidity)
     band = MultipleScatteringGrid(n_altitude=16, n_sun=12, n_mu=12, n_phi=9, sun_nodes="scene",
-                                  band_orders_from=3)
+                                  band_orders_from=3, band_width=6.0)
     full = replace(band, band_orders_from=None)
     s = _dir(sun_zenith, 180.0)
     v = _V[:4]  # above the horizontal (the last direction sees the black ground)

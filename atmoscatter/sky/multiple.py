@@ -191,8 +191,8 @@ class MultipleScatteringGrid:
         ``None`` (the dataclass default): every order at every node.  An integer ``K`` ≥ 3
         (the default grid: 3), for a ``"scene"`` grid with the observer inside the
         atmosphere and no ``high_orders``: orders ``K`` and later are computed only at the solar-zenith
-        nodes within ``sun_width`` of the sun and one node beyond on each side (the
-        band; the scene's rays read nothing outside it); elsewhere each order is the
+        nodes within ``band_width`` (or ``sun_width``) of the sun and one node beyond on
+        each side (the band); elsewhere each order is the
         previous one times its cell's decay per order (capped at the band's), and the
         summation stops when the band has converged (:meth:`_FieldState.converged_sum`).
         In daylight the air far from the band feeds the band's high orders with light
@@ -204,6 +204,17 @@ class MultipleScatteringGrid:
         errors at sun −3° to −18° moved by at most 0.15 % (of the reference's radiance),
         for a first call 15–25 % shorter (it was off below the horizon until measured).
         For observers above the atmosphere :meth:`for_sun` switches it off.
+    band_width : float or None
+        Half-width [deg] of the band of ``band_orders_from``, in (0, 180] (``None``, the
+        dataclass default: ``sun_width``).  The scene's own rays read the air within about
+        ±8° of its sun (a ray's length in Earth's 60 km atmosphere); the band's high orders
+        read about as far again, where outside the band each order is the previous one
+        times its cell's decay.  From noon to civil twilight that decay is steady and a
+        band of ±6° (the default grid) gives the values of one of ±12° and of every node
+        to the digits of the study's tables, for a shorter first call; in deeper twilight
+        the decay outside the band is not steady (the lit air moves with the order), so
+        :meth:`for_sun` gives a sun below :data:`TWILIGHT_BAND_ELEVATION` the full
+        ``sun_width`` (``docs/convergence.md``: the ``band_width`` rows).
     space_n_mu : int or None
         View zenith cosines (even, ≥ 2) used instead of ``n_mu`` for an observer above the
         atmosphere (:meth:`for_sun` with ``observer_dip`` > 0; ``None``, the dataclass
@@ -247,6 +258,7 @@ class MultipleScatteringGrid:
     sun_zenith: float | None = None
     sun_width: float = 12.0
     band_orders_from: int | None = None
+    band_width: float | None = None
     space_n_mu: int | None = None
     horizon_n_sun: int | None = None
     horizon_n_phi: int | None = None
@@ -302,6 +314,12 @@ class MultipleScatteringGrid:
         if (isinstance(w, bool) or not isinstance(w, (int, float, np.floating))
                 or not (0.0 < float(w) <= 180.0)):
             raise ValueError(f"MultipleScatteringGrid.sun_width must be in (0, 180] deg, got {w!r}")
+        b = self.band_width
+        if b is not None and (isinstance(b, bool) or not isinstance(b, (int, float, np.floating))
+                              or not (0.0 < float(b) <= 180.0)):
+            raise ValueError(
+                f"MultipleScatteringGrid.band_width must be None or in (0, 180] deg, got {b!r}"
+            )
         if self.high_orders is not None:
             if not isinstance(self.high_orders, MultipleScatteringGrid):
                 raise TypeError(
@@ -319,6 +337,7 @@ class MultipleScatteringGrid:
         text = ", ".join(f"{f.name} {getattr(self, f.name):g}" for f in fields(self)
                          if f.name not in ("high_orders", "high_orders_from", "sun_nodes",
                                            "sun_zenith", "sun_width", "band_orders_from",
+                                           "band_width",
                                            "space_n_mu", "horizon_n_sun", "horizon_n_phi"))
         if self.sun_nodes == "scene":
             text += (f"; solar-zenith nodes centred on the scene's sun (±{self.sun_width:g}° "
@@ -326,7 +345,13 @@ class MultipleScatteringGrid:
             if self.sun_zenith is not None:
                 text += f", here at {self.sun_zenith:.6g}°"
             if self.band_orders_from is not None:
-                text += f"; orders ≥ {self.band_orders_from} only in the band (observer in the atmosphere)"
+                text += (f"; orders ≥ {self.band_orders_from} only in the band of nodes "
+                         f"within {self._band_width():g}° of the sun (observer in the "
+                         "atmosphere")
+                if self.sun_zenith is None and self.band_width is not None:
+                    text += (f"; {self.sun_width:g}° with the sun below "
+                             f"{TWILIGHT_BAND_ELEVATION:g}°")
+                text += ")"
             if self.sun_zenith is None:  # specialised (for_sun): the knobs above are the sun's
                 near = [f"{name} {value}" for name, value in (("n_sun", self.horizon_n_sun),
                                                               ("n_phi", self.horizon_n_phi))
@@ -342,6 +367,11 @@ class MultipleScatteringGrid:
         if self.high_orders is not None:
             text += f"; orders ≥ {self.high_orders_from} on ({self.high_orders.describe()})"
         return text
+
+    def _band_width(self) -> float:
+        """Half-width [deg] of the band of ``band_orders_from`` (``band_width``, or
+        ``sun_width`` where it is ``None``)."""
+        return float(self.sun_width if self.band_width is None else self.band_width)
 
     def sun_zenith_nodes(self) -> np.ndarray:
         """Solar zenith nodes [rad], increasing, from 0 to ``max_sun_zenith``.
@@ -436,10 +466,12 @@ class MultipleScatteringGrid:
         n_sun = self.horizon_n_sun if (near_horizon and self.horizon_n_sun is not None) else self.n_sun
         n = int(np.ceil(n_sun * width / float(self.sun_width)))
         band = self.band_orders_from if dip == 0.0 else None
+        # in twilight the band takes the full sun_width (TWILIGHT_BAND_ELEVATION)
+        band_width = self.band_width if 90.0 - z >= TWILIGHT_BAND_ELEVATION else None
         n_mu = self.space_n_mu if (dip > 0.0 and self.space_n_mu is not None) else self.n_mu
         n_phi = self.horizon_n_phi if (near_horizon and self.horizon_n_phi is not None) else self.n_phi
         return replace(self, sun_zenith=z, sun_width=width, n_sun=n, n_mu=n_mu, n_phi=n_phi,
-                       high_orders=high, band_orders_from=band)
+                       high_orders=high, band_orders_from=band, band_width=band_width)
 
 
 HORIZON_SUN_ELEVATION: tuple[float, float] = (-18.0, 6.0)
@@ -453,15 +485,23 @@ The band was −8° to +6° until the deep-twilight scenes were measured; betwee
 16 nodes were within the bounds too, so extending it there costs those suns a longer first
 call for no measured need, against one band instead of two (``docs/convergence.md``)."""
 
+TWILIGHT_BAND_ELEVATION: float = -6.0
+"""Sun elevation [deg] below which :meth:`MultipleScatteringGrid.for_sun` sets a grid's
+``band_width`` back to ``None`` (the band of high orders as wide as ``sun_width``): at and
+above it a band of ±6° gives the answer of every node, below it the extrapolated high
+orders outside a narrow band are not steady enough (``docs/convergence.md``)."""
+
 MULTIPLE_SCATTERING_GRID = MultipleScatteringGrid(n_altitude=32, n_sun=16, n_mu=32, n_phi=17,
                                                   sun_nodes="scene", band_orders_from=3,
+                                                  band_width=6.0,
                                                   space_n_mu=36, horizon_n_sun=24,
                                                   horizon_n_phi=19)
 """Default grid: solar-zenith nodes centred on the scene's sun (one field per sun), finer in
 altitude (haze) and view zenith (the zenith cap, the limb) than :data:`TABLE_MULTIPLE_SCATTERING_GRID`
 for about the same first call; with the observer inside the atmosphere,
-orders from the third on are computed only in the band of nodes around the sun
-(``band_orders_from``); for an observer above the atmosphere 36 view cosines
+orders from the third on are computed only in the band of nodes within 6° of the sun
+(``band_orders_from``, ``band_width``; within 12° with the sun below
+:data:`TWILIGHT_BAND_ELEVATION`); for an observer above the atmosphere 36 view cosines
 (``space_n_mu``: 32 left the limb's total at the 1 % bound), and for a sun near or below
 the horizon (:data:`HORIZON_SUN_ELEVATION`, sunset and twilight down to −18°) 24
 solar-zenith nodes and 19 azimuths (``horizon_n_sun``, ``horizon_n_phi``: 16 nodes missed
@@ -859,14 +899,14 @@ class _Field:
 
     def _band_nodes(self):
         """Indices of the solar-zenith nodes where orders ≥ ``grid.band_orders_from`` are
-        computed (within ``sun_width`` of the sun, and one node beyond on each side), or
+        computed (within ``band_width`` — or ``sun_width`` — of the sun, and one node beyond on each side), or
         ``None``: every node (see :class:`MultipleScatteringGrid`)."""
         g = self.grid
         if (g.band_orders_from is None or g.sun_nodes != "scene" or g.sun_zenith is None
                 or g.high_orders is not None):
             return None
         th = np.degrees(self.ths)
-        inside = np.flatnonzero(np.abs(th - g.sun_zenith) <= g.sun_width)
+        inside = np.flatnonzero(np.abs(th - g.sun_zenith) <= g._band_width())
         lo, hi = max(int(inside[0]) - 1, 0), min(int(inside[-1]) + 1, th.size - 1)
         return None if (lo == 0 and hi == th.size - 1) else np.arange(lo, hi + 1)
 
