@@ -818,6 +818,17 @@ def test_band_of_a_scene_grid_is_the_sun_band_and_only_inside_the_atmosphere():
     assert g.band_orders_from == 3
     atm = qd.prepare_atmosphere(_atm())
     assert (g.band_width, M.TWILIGHT_BAND_ELEVATION) == (6.0, -6.0)
+    # the limits are inclusive also for a sun given as a vector (its zenith angle from
+    # arccos carries round-off: 96.00000000000001° at −6°), and end just past them
+    lo, hi = M.HORIZON_SUN_ELEVATION
+    for elevation, narrow, near in ((-6.0, True, True), (-6.001, False, True),
+                                    (lo, False, True), (lo - 0.001, False, False),
+                                    (hi, True, True), (hi + 0.001, True, False)):
+        e = np.radians(elevation)
+        zen, dip = M._sun_centre(atm, np.array([0.0, np.cos(e), np.sin(e)]), 0.0)
+        specialised = g.for_sun(zen, dip)
+        assert (specialised.band_width == 6.0) is narrow, (elevation, zen)
+        assert (specialised.n_sun == g.horizon_n_sun) is near, (elevation, zen)
     for zen in (0.0, 30.0, 60.0, 89.0, 90.0, 91.0, 96.0, 96.5, 108.0):
         f = M._Field(atm, g.for_sun(zen))
         th = np.degrees(f.ths)

@@ -462,12 +462,16 @@ class MultipleScatteringGrid:
             high = high.for_sun(z, dip)
         width = min(float(self.sun_width) + dip, 180.0)  # dip 0: the width and n_sun stay
         lo, hi = HORIZON_SUN_ELEVATION
-        near_horizon = dip == 0.0 and 90.0 - hi <= z <= 90.0 - lo
+        # the limits are inclusive to within _LIMIT_SLACK: a sun given as a vector at −6°
+        # has a zenith angle of 96.00000000000001° in floating point
+        elevation = 90.0 - z
+        near_horizon = dip == 0.0 and lo - _LIMIT_SLACK <= elevation <= hi + _LIMIT_SLACK
         n_sun = self.horizon_n_sun if (near_horizon and self.horizon_n_sun is not None) else self.n_sun
         n = int(np.ceil(n_sun * width / float(self.sun_width)))
         band = self.band_orders_from if dip == 0.0 else None
         # in twilight the band takes the full sun_width (TWILIGHT_BAND_ELEVATION)
-        band_width = self.band_width if 90.0 - z >= TWILIGHT_BAND_ELEVATION else None
+        band_width = (self.band_width if elevation >= TWILIGHT_BAND_ELEVATION - _LIMIT_SLACK
+                      else None)
         n_mu = self.space_n_mu if (dip > 0.0 and self.space_n_mu is not None) else self.n_mu
         n_phi = self.horizon_n_phi if (near_horizon and self.horizon_n_phi is not None) else self.n_phi
         return replace(self, sun_zenith=z, sun_width=width, n_sun=n, n_mu=n_mu, n_phi=n_phi,
@@ -484,6 +488,10 @@ first above the 3 % bound of issue 10); with 8° and 10° (ground) within them o
 The band was −8° to +6° until the deep-twilight scenes were measured; between −8° and −10°
 16 nodes were within the bounds too, so extending it there costs those suns a longer first
 call for no measured need, against one band instead of two (``docs/convergence.md``)."""
+
+#: slack [deg] of the inclusive sun-elevation limits of :meth:`MultipleScatteringGrid.for_sun`
+#: (round-off of a zenith angle computed from a direction vector, ~1e-14°)
+_LIMIT_SLACK = 1e-9
 
 TWILIGHT_BAND_ELEVATION: float = -6.0
 """Sun elevation [deg] below which :meth:`MultipleScatteringGrid.for_sun` sets a grid's
