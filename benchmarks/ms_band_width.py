@@ -65,7 +65,7 @@ def _grids(grid, elevation):
     ``for_sun`` switched off below its limit, to show what it avoids), the full band and
     every node."""
     z = 90.0 - elevation
-    full = grid.for_sun(z) if grid.band_width is None else replace(grid, band_width=None).for_sun(z)
+    full = replace(grid, band_width=None).for_sun(z)
     narrow = replace(full, band_width=grid.band_width)
     return {"narrow": narrow, "full": full, "every node": replace(full, band_orders_from=None)}
 
@@ -135,11 +135,7 @@ def main(argv=None) -> int:
     t0 = time.perf_counter()
     rows = run(scenes, grid)
     text = markdown(rows, grid, mc.machine_text(), cl["command"])
-    out = cl["out"]
-    out.mkdir(parents=True, exist_ok=True)
-    mc._atomic_write(out / "ms_band_width.md", text)
-    print(text)
-    print(f"wrote {out / 'ms_band_width.md'} in {time.perf_counter() - t0:.0f} s")
+    mc.write_study_page(cl["out"], "ms_band_width.md", text, t0)
     return 0
 
 

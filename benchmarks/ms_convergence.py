@@ -446,6 +446,15 @@ def study_command_line(script: str, doc: str, quick_help: str, argv=None) -> dic
             "official": not (args.quick or args.out)}
 
 
+def write_study_page(out: Path, name: str, text: str, t0: float) -> None:
+    """Write a study's page ``out/name`` atomically (creating ``out``), print it and say
+    how long the run took since ``t0`` (``time.perf_counter``)."""
+    out.mkdir(parents=True, exist_ok=True)
+    _atomic_write(out / name, text)
+    print(text)
+    print(f"wrote {out / name} in {time.perf_counter() - t0:.0f} s")
+
+
 def _atomic_write(path: Path, text: str):
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name + ".", suffix=".tmp")

@@ -99,15 +99,11 @@ def main(argv=None) -> int:
     else:
         scenes, n_suns, default, reference = SCENES, N_SUN, mc.DEFAULT, mc.REFERENCE
         all_suns = ALL_SUNS
-    out = cl["out"]
     t0 = time.perf_counter()
     errors, first = run(list(scenes), n_suns, default, reference, cl["store"], all_suns)
     text = markdown(scenes, n_suns, default, reference, all_suns, errors, first, mc.machine_text(),
                     cl["command"])
-    out.mkdir(parents=True, exist_ok=True)
-    mc._atomic_write(out / "ms_deep_twilight.md", text)
-    print(text)
-    print(f"wrote {out / 'ms_deep_twilight.md'} in {time.perf_counter() - t0:.0f} s")
+    mc.write_study_page(cl["out"], "ms_deep_twilight.md", text, t0)
     return 0
 
 
