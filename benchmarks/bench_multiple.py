@@ -65,7 +65,7 @@ def test_first_call_earth_rgb(benchmark, tmp_path, monkeypatch, case):
         return ac.multiple_scattering(atm, VIEWS, sun)
 
     # compiled kernels loaded (numba cache) by a field on a tiny grid
-    ac.multiple_scattering(atm, VIEWS, sun, grid=M.MultipleScatteringGrid(4, 6, 4, 3))
+    ac.multiple_scattering(atm, VIEWS, sun, grid=M.MultipleScatteringGrid(4, 10, 4, 3))
     c0 = time.process_time()
     out = benchmark.pedantic(run, rounds=1, iterations=1)
     # CPU time of the build (all threads): the wall time depends on the machine's load

@@ -50,7 +50,7 @@ QUICK_REFERENCE = mc.QUICK_REFERENCE
 _QUICK_ACC = MultipleScatteringGrid(n_altitude=5, n_sun=8, n_mu=4, n_phi=3, order=2,
                                     sun_nodes="scene")
 QUICK_GRIDS = {"default": mc.QUICK_DEFAULT, "accurate": (_QUICK_ACC, 1e-2),
-               "table": (MultipleScatteringGrid(n_altitude=4, n_sun=6, n_mu=4, n_phi=3, order=2),
+               "table": (MultipleScatteringGrid(n_altitude=4, n_sun=10, n_mu=4, n_phi=3, order=2),
                          1e-2)}
 QUICK_CANDIDATES = {"accurate, orders ≥ 3 on n_mu 2": (
     replace(_QUICK_ACC, high_orders=replace(_QUICK_ACC, n_mu=2)), 1e-2)}

@@ -47,7 +47,7 @@ SCENES = (
     ("mars", 10.0, 0.0), ("mars", 0.0, 0.0),
 )
 QUICK_SCENES = (("earth_t2.5", 20.0, 0.0), ("earth_t2.5", -10.0, 0.0))
-QUICK_GRID = ms.MultipleScatteringGrid(n_altitude=6, n_sun=8, n_mu=6, n_phi=5, order=2,
+QUICK_GRID = ms.MultipleScatteringGrid(n_altitude=6, n_sun=12, n_mu=6, n_phi=5, order=2,
                                        sun_nodes="scene", band_orders_from=3, band_width=6.0)
 WIDTHS = ("narrow", "full", "every node")
 

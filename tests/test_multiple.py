@@ -958,7 +958,9 @@ def test_field_state_keeps_its_sources_within_their_budget(monkeypatch):
     monkeypatch.setenv("ATMOSCATTER_CACHE_DIR", "off")
     monkeypatch.setattr(M, "_RESULTS_MAX", 0)
     atm = ac.earth_turbidity_atmosphere(2.5)
-    grid = MultipleScatteringGrid(n_altitude=5, n_sun=6, n_mu=4, n_phi=5, order=2)
+    # a tiny grid, but with nodes enough across the terminator (with 6 over every sun its
+    # order 2 came out twice as bright as order 1 near the horizon: GridTooCoarseError)
+    grid = MultipleScatteringGrid(n_altitude=5, n_sun=10, n_mu=4, n_phi=5, order=2)
     v = np.array([[0.0, 0.0, 1.0], [0.0, 0.6, 0.8], [0.7, 0.0, 0.1]])
     s = _dir(50.0, 0.0)
     requests = [dict(orders=8), dict(orders=3), dict(), dict(orders=5),
@@ -1015,3 +1017,34 @@ def test_in_process_caches_hold_their_memory_budget(monkeypatch):
         multiple_scattering(atm, v, s, grid=grid)
     assert len(M._RESULTS) == 3 and len(M._CACHE) == 3
     M._clear_process_caches()
+
+
+def test_a_grid_too_coarse_for_twilight_raises_instead_of_returning_garbage():
+    """No order of scattering can be brighter than the one before (the phase operators are
+    row-normalised and a ray scatters again with probability < 1), so a field whose
+    brightest source grows is wrong.  On a tiny grid with solar-zenith nodes 4-5 deg apart
+    across the terminator (sun -6 deg), the cubic in log S along the solar zenith
+    overshoots between a lit and a dark node: order 2 came out 1e10 times as bright as
+    order 1 and the sky 1e6 times too bright.  That must be an error naming the grid,
+    every time (the failed state is not kept and summed by a later call), while a few
+    more nodes give a twilight sky dimmer than a daylit one."""
+    from atmoscatter.sky.multiple import GridTooCoarseError
+
+    atm = ac.earth_turbidity_atmosphere(2.5)
+    e = np.radians(-6.0)
+    sun = np.array([0.0, np.cos(e), np.sin(e)])
+    v = np.array([[0.0, 0.0, 1.0], [0.0, 0.9, np.sqrt(1 - 0.81)]])
+    coarse = MultipleScatteringGrid(n_altitude=6, n_sun=10, n_mu=6, n_phi=5, order=2,
+                                    sun_nodes="scene", horizon_n_sun=10)
+    for _ in range(2):
+        with pytest.raises(GridTooCoarseError, match="grid") as info:
+            multiple_scattering(atm, v, sun, grid=coarse, order_tolerance=1e-2)
+        assert isinstance(info.value, ValueError)
+    with pytest.raises(GridTooCoarseError):
+        multiple_scattering(atm, v, sun, grid=coarse, orders=3)
+    finer = replace(coarse, horizon_n_sun=14)
+    twilight = multiple_scattering(atm, v, sun, grid=finer, order_tolerance=1e-2)
+    day = multiple_scattering(atm, v, np.array([0.0, 0.5, np.sqrt(0.75)]), grid=finer,
+                              order_tolerance=1e-2)
+    assert np.all(np.isfinite(twilight)) and np.all(twilight > 0)
+    assert np.all(twilight < 0.1 * day)

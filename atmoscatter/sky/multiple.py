@@ -121,7 +121,8 @@ from ._sky_table import _SkyTable
 from .single import TABLE_THRESHOLD, _prepare_inputs, single_scattering
 
 __all__ = ["multiple_scattering", "MULTIPLE_SCATTERING_GRID", "ACCURATE_MULTIPLE_SCATTERING_GRID",
-           "TABLE_MULTIPLE_SCATTERING_GRID", "MULTIPLE_SCATTERING_GRIDS", "MultipleScatteringGrid"]
+           "TABLE_MULTIPLE_SCATTERING_GRID", "MULTIPLE_SCATTERING_GRIDS", "MultipleScatteringGrid",
+           "GridTooCoarseError"]
 
 
 @dataclass(frozen=True)
@@ -1111,8 +1112,27 @@ class _SourceDropped(LookupError):
     """A field state was asked for a sum that needs a source it dropped (``_SOURCES_BYTES``)."""
 
 
+#: the largest growth of the brightest source from one order to the next that the checks
+#: of :meth:`_FieldState._check_growth` let pass [-].  Physics allows none: the phase
+#: operators are row-normalised, so each order's source is at most the brightest radiance
+#: of the previous order's field, which is at most the brightest source of that order
+#: (times the probability of scattering again before the ray leaves, < 1).  Round-off,
+#: quadrature and smooth interpolation error stay far below this margin.
+_MAX_ORDER_GROWTH = 1.5
+
+
+class GridTooCoarseError(ValueError):
+    """The field grid of :func:`multiple_scattering` cannot resolve the scene: a
+    higher order came out brighter than the one before it, which physics forbids (see
+    :meth:`_FieldState._check_growth`)."""
+
+
 class _FieldState:
     """Successive orders on the grid, extended on demand and cached per atmosphere."""
+
+    #: the largest growth of the brightest source between two successive orders so far
+    #: (:meth:`_check_growth`; below 1 in a correct field)
+    growth = 0.0
 
     def __init__(self, atm: qd.PreparedAtmosphere, grid: MultipleScatteringGrid, albedo: float,
                  use_kernel: bool = True):
@@ -1320,12 +1340,55 @@ class _FieldState:
             self.L_field = self.high.field
             self.S.append(self._source(self.L, self.high.field, self.high.W))
             self._drop_old()
+            self._check_growth()
             return
         if self.S:
             new = self._next_field(self.S[-1])
             self._L_prev, self.L = self.L, new  # _extrapolate_outside reads both
         self.S.append(self._source(self.L))
         self._drop_old()
+        self._check_growth()
+
+    def _check_growth(self):
+        """Raise :class:`GridTooCoarseError` where the newest order's brightest source (per
+        wavelength, over the whole grid) exceeds the previous order's by more than
+        :data:`_MAX_ORDER_GROWTH`.
+
+        Each order's source is at most the previous one's maximum (the phase operators are
+        row-normalised and a ray's scattering weights sum to at most one), so growth means
+        the gather's interpolation went wrong: on a grid whose solar-zenith nodes are
+        several degrees apart across the terminator, the cubic in ``log S`` along the solar
+        zenith overshoots by orders of magnitude between a lit node and a dark one (a quick
+        test grid with 10 nodes at sun −6° grew by 1e10 in order 2).  The check costs one
+        maximum per order; it does not catch small local errors, only the catastrophic
+        ones, which would otherwise be returned as radiance.  The bound holds for the
+        whole grid, not for a part of it (the air near a sun deep below the horizon is lit
+        by light scattered elsewhere), so the check reads every node."""
+        if len(self.S) < 2 or self.S[-2] is None:
+            return
+        n = len(self.S)
+
+        def brightest(k):  # per wavelength, over the whole grid, of S^{k+1}
+            S = self.S[k]
+            return np.max(S, axis=tuple(range(S.ndim - 1)))
+
+        m_new, m_old = brightest(n - 1), brightest(n - 2)
+        ratio = m_new / np.maximum(m_old, 1e-300)
+        self.growth = max(self.growth, float(np.max(ratio)))
+        bad = m_new > _MAX_ORDER_GROWTH * m_old
+        if np.any(bad) or not np.all(np.isfinite(m_new)):
+            c = int(np.argmax(~np.isfinite(m_new) | bad))
+            g = self.field.grid
+            raise GridTooCoarseError(
+                f"grid: order {len(self.S)} of the multiple-scattering field came out "
+                f"{ratio[c]:.3g} times as bright as order {len(self.S) - 1} "
+                f"(wavelength index {c}; no order can be brighter than the one before): the "
+                f"grid (n_sun={g.n_sun}, n_altitude={g.n_altitude}"
+                + ("" if g.sun_zenith is None else f", centred on solar zenith {g.sun_zenith:.4g} deg")
+                + ") is too coarse for "
+                "this scene, its interpolation between solar-zenith nodes overshoots across "
+                "the terminator; use more solar-zenith nodes (n_sun, horizon_n_sun) or a "
+                "named grid")
 
     def _floor(self, total: np.ndarray, top: float, field: _Field):
         """Sources below this are left out of the decay test of :meth:`converged_sum`.
@@ -1660,6 +1723,15 @@ def _state_for(atm_obj, atm, grid, albedo, fresh=False):
     return _CACHE[key]
 
 
+def _forget_state(atm_obj, grid, albedo) -> None:
+    """Drop the in-process field state of :func:`_state_for` (the caller holds
+    ``_CACHE_LOCK``)."""
+    try:
+        _CACHE.pop((atm_obj, grid, float(albedo)), None)
+    except TypeError:  # unhashable: never cached
+        pass
+
+
 def _disk_key(atm_obj, grid, albedo, orders, tol):
     """Key of the persistent cache, or ``None`` for objects that cannot be fingerprinted
     (duck-typed custom atmospheres)."""
@@ -1757,10 +1829,15 @@ def _field_for(atm_obj, atm, grid, albedo, orders, tol=None):
         with _CACHE_LOCK:
             st = _state_for(atm_obj, atm, grid, albedo)
             try:
-                S_sum, n, tail = summed(st)
-            except _SourceDropped:  # an earlier order went for memory: start again
-                st = _state_for(atm_obj, atm, grid, albedo, fresh=True)
-                S_sum, n, tail = summed(st)
+                try:
+                    S_sum, n, tail = summed(st)
+                except _SourceDropped:  # an earlier order went for memory: start again
+                    st = _state_for(atm_obj, atm, grid, albedo, fresh=True)
+                    S_sum, n, tail = summed(st)
+            except GridTooCoarseError:
+                # the state holds the order that failed the check: never sum it later
+                _forget_state(atm_obj, grid, albedo)
+                raise
             if grid.sun_nodes == "scene":
                 # a field of one sun is rarely extended: its kept node rays (the bulk of
                 # the state's memory) go, and are marched again if more orders are asked
@@ -1876,6 +1953,15 @@ def multiple_scattering(
     ndarray, shape (..., n_wavelengths)
         Path radiance per unit extraterrestrial irradiance [sr⁻¹] (ground surface radiance
         at the end of ground-hitting rays excluded), float32 for float32 directions.
+
+    Raises
+    ------
+    GridTooCoarseError
+        (a ``ValueError``) where a user-made ``grid`` cannot resolve the scene: an order of
+        the field came out more than 1.5 times as bright as the one before, which physics
+        forbids (the cubic interpolation between solar-zenith nodes several degrees apart
+        overshoots across the terminator).  The named grids pass this check at every sun
+        of the convergence study.
 
     Notes
     -----
