@@ -126,7 +126,24 @@ def _reference_note(reference=REFERENCE[0], grids=(ms.MULTIPLE_SCATTERING_GRID,
             "at it")
 
 
-REFERENCE_NOTE = _reference_note()
+#: scenes with the sun at or below this elevation [deg] are measured against a reference
+#: centred on their own sun (REFERENCE's other knobs and tolerance, CENTRED_N_SUN solar-zenith
+#: nodes within its sun_width): there the nodes of REFERENCE, which cover every sun, are
+#: 1.1–2.9° apart, and it was 0.8 %, 1.7 % and 12 % off at sun −12°, −15° and −18°, where
+#: centred references with 48 and 64 nodes agree to 0.2 % (docs/convergence/ms_deep_twilight.md)
+CENTRED_BELOW = -12.0
+CENTRED_N_SUN = 64
+
+
+def centred(reference, n_sun):
+    """The reference ``(grid, tolerance)`` with its solar-zenith nodes centred on the
+    scene's sun: ``n_sun`` of them for a sun near the horizon."""
+    grid, tol = reference
+    return replace(grid, sun_nodes="scene", n_sun=n_sun, horizon_n_sun=n_sun), tol
+
+
+REFERENCE_NOTE = (_reference_note() + f"; for a sun at or below {CENTRED_BELOW:g}° the same "
+                  f"knobs centred on the scene's sun, {CENTRED_N_SUN} solar-zenith nodes")
 #: the reference radiances of the full run's scenes, kept between runs (the reference
 #: does not depend on the grids measured against it; about 30 minutes of builds): a run
 #: reuses them while the method (field version), the reference grid, the atmospheres and
@@ -252,7 +269,13 @@ def evaluate(atm, scenes, config):
         if per_scene:
             clear_caches()
         t0 = time.perf_counter()
-        out[name] = ms.multiple_scattering(atm, v, sun, altitude=alt, grid=grid, order_tolerance=tol)
+        try:
+            out[name] = ms.multiple_scattering(atm, v, sun, altitude=alt, grid=grid,
+                                               order_tolerance=tol)
+        except ms.GridTooCoarseError:
+            # the grid cannot resolve this scene (an order came out brighter than the one
+            # before): no radiance, the tables say so (_fmt of NaN)
+            out[name] = np.full((len(v), len(atm.wavelengths)), np.nan)
         dt = time.perf_counter() - t0
         if build is None or per_scene:
             # the first call builds the field (and gathers 72 directions)
@@ -300,6 +323,17 @@ def reference_values(atm, names, reference, store=None, progress=print):
     atmosphere, scene geometry) are read back, with the build time and date of the run
     that computed them (``note``); otherwise they are computed as any grid is
     (:func:`evaluate`) and added to the store (written atomically)."""
+    out, build, note = _reference_values(atm, names, reference, store, progress)
+    if reference == REFERENCE:
+        for n in names:
+            if SCENES[n][1] <= CENTRED_BELOW:
+                out[n] = _reference_values(atm, [n], centred(reference, CENTRED_N_SUN), store,
+                                           progress)[0][n]
+    return out, build, note
+
+
+def _reference_values(atm, names, reference, store=None, progress=print):
+    """:func:`reference_values` for one reference grid."""
     key = _reference_key(atm, names, reference)
     data = {}
     if store is not None and Path(store).exists():
@@ -464,7 +498,8 @@ def _atomic_write(path: Path, text: str):
 
 
 def _fmt(x):
-    return f"{x:.1e}"
+    # NaN: the grid raised GridTooCoarseError for the scene (evaluate)
+    return "too coarse" if x != x else f"{x:.1e}"
 
 
 def default_rows(records):

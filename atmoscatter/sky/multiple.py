@@ -232,9 +232,11 @@ class MultipleScatteringGrid:
         the field changes fastest with the solar zenith: with the default grid's 16 nodes
         the total at sun 0° and −3° was 1.2 % and 2.5 % off, with 24 within 0.7 %; at
         −12°, −15° and −18° 16 nodes were 3.3 %, 37 % and 30 % off, 24 nodes 1.4 %, 3.0 %
-        and 2.3 % (at −18° the reference is not converged in solar zenith: grids finer
-        than 24 nodes differ from it by 8–10 %, which is the better estimate there;
-        ``docs/convergence.md``, ``benchmarks/ms_deep_twilight.py``).
+        and 2.3 % against the study's reference over every sun, which is not converged
+        in solar zenith below −12°: against references centred on the sun (48 and 64
+        nodes, agreeing to 0.2 %) 24 nodes are 1.2 %, 4.7 % and 11 % off at −12°, −15° and
+        −18°, 40 nodes 1.2 %, 0.5 % and 2.5 % (``docs/convergence.md``,
+        ``benchmarks/ms_deep_twilight.py``).
     horizon_n_phi : int or None
         Azimuths (≥ 2) used instead of ``n_phi`` by :meth:`for_sun` in the same case as
         ``horizon_n_sun`` (``None``, the dataclass default: ``n_phi`` at every sun).  With
