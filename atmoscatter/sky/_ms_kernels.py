@@ -337,3 +337,209 @@ def march_weights(plen, rho, ext, smat, wq, weights, sc_group, sc_beta, wt, tau_
                     base[w] += whole[g] * ext[g, w]
         for w in range(nwl):
             tau_end[n, w] = base[w]
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def locate_geometry(h_nodes, mu_nodes, h, mu, n_s, n_out, n_phi, hrow, fh, fmu):  # pragma: no cover
+    """The (altitude, μ) part of the stencil of samples that every solar zenith and azimuth
+    of a node ray shares (:func:`gather_slices`): ``hrow`` the flat row of the (altitude,
+    θ_s = 0, μ, φ = 0) corner, ``fh`` and ``fmu`` the fractions, as :func:`_locate_rows`
+    finds them."""
+    for s in range(h.shape[0]):
+        i, fi = _locate(h_nodes, h[s])
+        k, fk = _locate(mu_nodes, mu[s])
+        hrow[s] = (i * n_s * n_out + k) * n_phi
+        fh[s] = fi
+        fmu[s] = fk
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def locate_sun(th_nodes, n_phi, mus, cphi, jt, ft, mp, fp):  # pragma: no cover - compiled
+    """The (θ_s, φ) part of the stencil of samples (flat arrays): the solar-zenith interval
+    ``jt`` and fraction ``ft``, the azimuth cell ``mp`` and fraction ``fp``, by the formulas
+    of :func:`_locate_rows`."""
+    for s in range(mus.shape[0]):
+        x = mus[s]
+        x = -1.0 if x < -1.0 else (1.0 if x > 1.0 else x)
+        j, fj = _locate(th_nodes, np.arccos(x))
+        y = cphi[s]
+        y = -1.0 if y < -1.0 else (1.0 if y > 1.0 else y)
+        xl = np.arccos(y) / np.pi * (n_phi - 1)
+        m = int(xl)
+        if m > n_phi - 2:
+            m = n_phi - 2
+        jt[s] = j
+        ft[s] = fj
+        mp[s] = m
+        fp[s] = xl - m
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _slice_range(n_s, n_phi, jt, s, j_lo, j_hi):  # pragma: no cover - compiled
+    """The solar-zenith nodes ``lo``–``hi`` (exclusive) that the cubic stencils of sample
+    ``s`` read at the solar-zenith nodes ``j_lo``–``j_hi`` and every azimuth."""
+    lo = n_s
+    hi = 0
+    for j in range(j_lo, j_hi):
+        for p in range(n_phi):
+            j0 = min(max(np.int64(jt[s, j, p]) - 1, 0), n_s - 4)
+            if j0 < lo:
+                lo = j0
+            if j0 + 4 > hi:
+                hi = j0 + 4
+    return lo, hi
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _fill_slice(logflat, s, lo, hi, d_h, d_s, n_phi, hrow, fh, fmu, A):  # pragma: no cover
+    """``A[j, p, c]``: ``log S`` bilinear in (altitude, μ) at sample ``s`` for the
+    solar-zenith nodes ``lo``–``hi`` and every azimuth node."""
+    C = A.shape[2]
+    fi = fh[s]
+    fk = fmu[s]
+    w00 = (1.0 - fi) * (1.0 - fk)
+    w01 = (1.0 - fi) * fk
+    w10 = fi * (1.0 - fk)
+    w11 = fi * fk
+    for jj in range(lo, hi):
+        b = hrow[s] + jj * d_s
+        for p in range(n_phi):
+            r00 = b + p
+            r01 = r00 + n_phi
+            r10 = r00 + d_h
+            r11 = r10 + n_phi
+            for c in range(C):
+                A[jj, p, c] = (w00 * logflat[r00, c] + w01 * logflat[r01, c]
+                               + w10 * logflat[r10, c] + w11 * logflat[r11, c])
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _ray_stencil(th_nodes, inv, n_s, jt, ft, mp, fp, s, j, p):  # pragma: no cover - compiled
+    """The (θ_s, φ) stencil of sample ``s`` of the ray at solar-zenith node ``j`` and
+    azimuth node ``p``: the first θ_s node ``j0`` of the cubic, the azimuth cell ``m`` and
+    the eight weights ``l_q (1 − f_φ)`` and ``l_q f_φ`` (Lagrange weights ``l_q`` with the
+    inverse denominators ``inv`` of :func:`lagrange_inverse_denominators`)."""
+    jj = np.int64(jt[s, j, p])
+    j0 = min(max(jj - 1, 0), n_s - 4)
+    x = th_nodes[jj] + np.float64(ft[s, j, p]) * (th_nodes[jj + 1] - th_nodes[jj])
+    d0 = x - th_nodes[j0]
+    d1 = x - th_nodes[j0 + 1]
+    d2 = x - th_nodes[j0 + 2]
+    d3 = x - th_nodes[j0 + 3]
+    l0 = d1 * d2 * d3 * inv[j0, 0]
+    l1 = d0 * d2 * d3 * inv[j0, 1]
+    l2 = d0 * d1 * d3 * inv[j0, 2]
+    l3 = d0 * d1 * d2 * inv[j0, 3]
+    f1 = np.float64(fp[s, j, p])
+    f0 = 1.0 - f1
+    return (j0, np.int64(mp[s, j, p]), l0 * f0, l0 * f1, l1 * f0, l1 * f1, l2 * f0, l2 * f1,
+            l3 * f0, l3 * f1)
+
+
+def lagrange_inverse_denominators(th_nodes):
+    """``inv[j0, q] = 1 / Π_{r≠q} (x_q − x_r)`` over the four nodes ``x = th_nodes[j0:j0+4]``
+    of every cubic stencil (:func:`gather_slices`), shape (max(n − 3, 1), 4)."""
+    th = np.asarray(th_nodes, dtype=np.float64)
+    n = th.size
+    inv = np.zeros((max(n - 3, 1), 4))
+    for j0 in range(n - 3):
+        x = th[j0 : j0 + 4]
+        for q in range(4):
+            d = 1.0
+            for r in range(4):
+                if r != q:
+                    d *= x[q] - x[r]
+            inv[j0, q] = 1.0 / d
+    return inv
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def gather_slices(logflat, n_s, n_out, n_phi, th_nodes, inv, starts, k0, k1, hrow, fh, fmu, wt,
+                  jt, ft, mp, fp, j_lo, j_hi, out):  # pragma: no cover - compiled
+    """The gather of :func:`_gather_log` for the node rays of one altitude, by slices.
+
+    The node rays of an altitude that share their view zenith (ray ``k``) share their
+    samples — altitude, view zenith, weight — for every solar zenith ``j`` and azimuth
+    ``p``: only the sample's local solar zenith and azimuth differ.  So for each sample the
+    bilinear (altitude, μ) part of the interpolation of ``log S`` is formed once, as a
+    slice over the solar-zenith nodes the rays' stencils read and every azimuth node
+    (:func:`_fill_slice`), and each ray then interpolates that slice by the cubic in θ_s
+    and linearly in φ (:func:`_ray_stencil`): the tensor product of
+    :func:`_corner_weights`, summed in another order (equal to round-off), for a fraction
+    of the table reads.
+
+    ``starts`` (n_rays + 1,) the offsets of each ray's samples (kept samples, along the
+    ray), rays ``k0``–``k1`` gathered; per sample ``hrow``, ``fh``, ``fmu``
+    (:func:`locate_geometry`) and the weights ``wt`` (K, C); per sample, solar zenith
+    node and azimuth node ``jt``, ``ft``, ``mp``, ``fp`` (K, n_s, n_phi)
+    (:func:`locate_sun`); ``inv``: :func:`lagrange_inverse_denominators`.  The
+    solar-zenith nodes ``j_lo``–``j_hi`` (exclusive) are added to ``out`` (n_s, n_rays,
+    n_phi, C)."""
+    C = logflat.shape[1]
+    d_h = n_s * n_out * n_phi
+    d_s = n_out * n_phi
+    A = np.empty((n_s, n_phi, C))
+    ex = np.empty(C)
+    u = np.empty(4)
+    v = np.empty(4)
+    for k in range(k0, k1):
+        for s in range(starts[k], starts[k + 1]):
+            lo, hi = _slice_range(n_s, n_phi, jt, s, j_lo, j_hi)
+            _fill_slice(logflat, s, lo, hi, d_h, d_s, n_phi, hrow, fh, fmu, A)
+            for j in range(j_lo, j_hi):
+                for p in range(n_phi):
+                    j0, m, u[0], v[0], u[1], v[1], u[2], v[2], u[3], v[3] = _ray_stencil(
+                        th_nodes, inv, n_s, jt, ft, mp, fp, s, j, p)
+                    for c in range(C):
+                        ex[c] = 0.0
+                    for q in range(4):
+                        for c in range(C):
+                            ex[c] += u[q] * A[j0 + q, m, c] + v[q] * A[j0 + q, m + 1, c]
+                    for c in range(C):
+                        out[j, k, p, c] += wt[s, c] * np.exp(ex[c])
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def gather_slices6(logflat, n_s, n_out, n_phi, th_nodes, inv, starts, k0, k1, hrow, fh, fmu,
+                   wt, jt, ft, mp, fp, j_lo, j_hi, out):  # pragma: no cover - compiled
+    """:func:`gather_slices` for exactly six channels (two scatterers × three wavelengths),
+    written out so that the interpolated logarithms stay in registers: the same products
+    in the same order, so both agree to round-off."""
+    d_h = n_s * n_out * n_phi
+    d_s = n_out * n_phi
+    A = np.empty((n_s, n_phi, 6))
+    for k in range(k0, k1):
+        for s in range(starts[k], starts[k + 1]):
+            lo, hi = _slice_range(n_s, n_phi, jt, s, j_lo, j_hi)
+            _fill_slice(logflat, s, lo, hi, d_h, d_s, n_phi, hrow, fh, fmu, A)
+            w0 = wt[s, 0]
+            w1 = wt[s, 1]
+            w2 = wt[s, 2]
+            w3 = wt[s, 3]
+            w4 = wt[s, 4]
+            w5 = wt[s, 5]
+            for j in range(j_lo, j_hi):
+                for p in range(n_phi):
+                    j0, m, u0, v0, u1, v1, u2, v2, u3, v3 = _ray_stencil(
+                        th_nodes, inv, n_s, jt, ft, mp, fp, s, j, p)
+                    e0 = 0.0
+                    e1 = 0.0
+                    e2 = 0.0
+                    e3 = 0.0
+                    e4 = 0.0
+                    e5 = 0.0
+                    for q in range(4):
+                        u = u0 if q == 0 else (u1 if q == 1 else (u2 if q == 2 else u3))
+                        v = v0 if q == 0 else (v1 if q == 1 else (v2 if q == 2 else v3))
+                        e0 += u * A[j0 + q, m, 0] + v * A[j0 + q, m + 1, 0]
+                        e1 += u * A[j0 + q, m, 1] + v * A[j0 + q, m + 1, 1]
+                        e2 += u * A[j0 + q, m, 2] + v * A[j0 + q, m + 1, 2]
+                        e3 += u * A[j0 + q, m, 3] + v * A[j0 + q, m + 1, 3]
+                        e4 += u * A[j0 + q, m, 4] + v * A[j0 + q, m + 1, 4]
+                        e5 += u * A[j0 + q, m, 5] + v * A[j0 + q, m + 1, 5]
+                    out[j, k, p, 0] += w0 * np.exp(e0)
+                    out[j, k, p, 1] += w1 * np.exp(e1)
+                    out[j, k, p, 2] += w2 * np.exp(e2)
+                    out[j, k, p, 3] += w3 * np.exp(e3)
+                    out[j, k, p, 4] += w4 * np.exp(e4)
+                    out[j, k, p, 5] += w5 * np.exp(e5)

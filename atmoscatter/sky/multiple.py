@@ -573,6 +573,9 @@ _SUN_CENTRE, _SUN_WIDTH = 92.0, 16.0  # [deg] where the solar-zenith nodes are d
 #: node density at the sun of a ``sun_nodes="scene"`` grid relative to far from it [-]
 _SCENE_PEAK = 8.0
 _HORIZON_SPLIT = True  # μ quadrature split at each altitude's horizon (see _Field)
+#: kept node rays gathered by slices (:class:`_NodeRays`; False: per cell, as the caller's
+#: rays are gathered — the tests' comparison)
+_SLICE_GATHER = True
 _CACHE: dict = {}
 _CACHE_LOCK = threading.Lock()
 _CACHE_MAX = 4
@@ -1144,8 +1147,12 @@ class _FieldState:
         nwl = atm.n_wavelengths
         n_r, n_s, n_mu, n_phi = field.shape
         self.marches = {}
+        self.rays = {}  # per altitude: the kept node rays of the slice gather (_NodeRays)
         # the marched rays are kept between orders (decided below, from their size)
         self.keep = _have_kernel()
+        # kept node rays are gathered by slices (_NodeRays) where the compiled kernels do
+        # order 1 (use_kernel=False keeps the per-cell gather of located samples)
+        self.slices = self.keep and use_kernel and _SLICE_GATHER and n_s >= 4
         L = np.zeros(field.shape + (nwl,))
         cells = [(i, j) for i in range(n_r) for j in range(n_s)]
 
@@ -1162,7 +1169,7 @@ class _FieldState:
             # samples with weight (the rest of the (N, M) batch pads the shorter rays)
             keep = np.any(vm.wt != 0, axis=(-2, -1))
             packed = None
-            if self.keep:
+            if self.keep and not self.slices:  # the slice gather keeps its own (_NodeRays)
                 N, M = vm.h.shape
                 packed = _pack_weights(np.asarray(vm.wt, dtype=np.float32), N, M,
                                        key=_node_sample_order(field, vm.h, vm.mu))
@@ -1171,14 +1178,21 @@ class _FieldState:
         _run_cells(view, list(range(n_r)), "multiple scattering: view rays")
         if self.keep:
             # kept: per cell the located samples (int32 row + 4 float32 fractions), per
-            # altitude the packed float32 weights (shared by the cells of the altitude).
+            # altitude the packed float32 weights (shared by the cells of the altitude);
+            # with slices, per sample, solar zenith and azimuth two int16 and two float32
+            # (the weights and the (altitude, μ) stencil once per view zenith).
             # Beyond the budget the rays are marched again for every order instead.
-            k_alt = [views[i][3][0].size for i in range(n_r)]
-            size = 20 * n_s * sum(k_alt) + 4 * sum(k_alt) * nwl * len(atm.scatterers)
+            k_alt = [int(np.count_nonzero(views[i][2])) for i in range(n_r)]
+            size = ((12 if self.slices else 20) * n_s * sum(k_alt)
+                    + 4 * sum(k_alt) * nwl * len(atm.scatterers))
             self.keep = size <= _KEEP_BYTES
             if not self.keep:
+                self.slices = False
                 for i in range(n_r):
                     views[i] = views[i][:3] + (None,)
+            if self.slices:
+                for i in range(n_r):
+                    self.rays[i] = _NodeRays(field, views[i][1], views[i][2])
 
         def first(cell):
             i, j = cell
@@ -1195,7 +1209,9 @@ class _FieldState:
                                                                    mc.mus_end)
                 path += np.where(mc.ground[:, None], mc.t_end * albedo / np.pi * e0, 0.0)
             L[i, j] = path.reshape(n_mu, n_phi, nwl)
-            if self.keep:
+            if self.slices:
+                self.rays[i].locate_sun(j, mc)
+            elif self.keep:
                 self.marches[i, j] = _compact(field, mc, packed)
 
         _run_cells(first, cells, "multiple scattering: order 1")
@@ -1207,6 +1223,7 @@ class _FieldState:
         self.S: list[np.ndarray] = []  # S^1, S^2, ... (S^k on high_orders for k ≥ K)
         self.high = None  # _HighOrders, made when the first high order is asked for
         self._sums: dict = {}  # running sums of the sources (:meth:`_prefix`)
+        self._brightest: dict = {}  # per order, its source's maximum (:meth:`_check_growth`)
 
     def _high_from(self):
         """The first order K on the grid's ``high_orders`` (``None``: no such grid)."""
@@ -1253,11 +1270,43 @@ class _FieldState:
         k = len(self.S) + 1  # the order computed
         band = f.band if (f.band is not None and k >= f.grid.band_orders_from) else None
         cols = range(f.shape[1]) if band is None else band
-        _run_cells(cell, [(i, j) for i in range(f.shape[0]) for j in cols],
-                   f"multiple scattering: order {k}")
+        if self.rays:
+            self._slice_orders(logS, Lnew, int(cols[0]), int(cols[-1]) + 1, E,
+                               f"multiple scattering: order {k}")
+        else:
+            _run_cells(cell, [(i, j) for i in range(f.shape[0]) for j in cols],
+                       f"multiple scattering: order {k}")
         if band is not None:
             self._extrapolate_outside(Lnew, band)
         return Lnew
+
+    def _slice_orders(self, logS, Lnew, j_lo, j_hi, E, stage):
+        """The next order's field ``Lnew`` at the solar-zenith nodes ``j_lo``–``j_hi``
+        (exclusive) from the kept node rays by the slice gather (:class:`_NodeRays`):
+        work units of a few view zeniths of one altitude over the thread pool, then per
+        altitude the sum over the scatterers and the ground's reflection of ``E``."""
+        f = self.field
+        n_r, n_s, n_mu, n_phi = f.shape
+        nsc, nwl = len(self.atm.scatterers), self.atm.n_wavelengths
+        outs = [np.zeros((n_s, n_mu, n_phi, nsc * nwl)) for _ in range(n_r)]
+        step = max(1, n_mu // 4)
+        units = [(i, k) for i in range(n_r) for k in range(0, n_mu, step)]
+
+        def unit(ik):
+            i, k = ik
+            self.rays[i].gather(logS, k, min(k + step, n_mu), j_lo, j_hi, outs[i])
+
+        _run_cells(unit, units, stage)
+        for i in range(n_r):
+            path = outs[i][j_lo:j_hi].reshape(j_hi - j_lo, n_mu * n_phi, nsc, nwl).sum(axis=2)
+            if E is not None:
+                rays = self.rays[i]
+                for j in range(j_lo, j_hi):
+                    e = _interp_e(f, E, rays.mus_end[j])
+                    path[j - j_lo] += np.where(rays.ground[:, None],
+                                               rays.t_end * self.albedo / np.pi * e, 0.0)
+            Lnew[i, j_lo:j_hi] = path.reshape(j_hi - j_lo, n_mu, n_phi, nwl)
+            outs[i] = None
 
     def _extrapolate_outside(self, Lnew, band):
         """Fill the solar-zenith nodes outside ``band`` of the order being computed
@@ -1370,9 +1419,11 @@ class _FieldState:
             return
         n = len(self.S)
 
-        def brightest(k):  # per wavelength, over the whole grid, of S^{k+1}
-            S = self.S[k]
-            return np.max(S, axis=tuple(range(S.ndim - 1)))
+        def brightest(k):  # per wavelength, over the whole grid, of S^{k+1} (once each)
+            if k not in self._brightest:
+                S = self.S[k]
+                self._brightest[k] = np.max(S, axis=tuple(range(S.ndim - 1)))
+            return self._brightest[k]
 
         m_new, m_old = brightest(n - 1), brightest(n - 2)
         ratio = m_new / np.maximum(m_old, 1e-300)
@@ -1553,7 +1604,8 @@ class _HighOrders:
             vm = _march_view(atm, atm.planet_radius + f.h_nodes[i], f.directions(f.mu_q[i]),
                              grid.order)
             N, M = vm.h.shape
-            packed = (_pack_weights(np.asarray(vm.wt, dtype=np.float32), N, M,
+            # float64 weights, as the fine grid's slice gather keeps them (_NodeRays)
+            packed = (_pack_weights(np.asarray(vm.wt, dtype=np.float64), N, M,
                                     key=_node_sample_order(f, vm.h, vm.mu))
                       if _have_kernel() else None)
             views[i] = (vm, packed)
@@ -1608,6 +1660,87 @@ class _HighOrders:
     def from_fine(self, S: np.ndarray) -> np.ndarray:
         """A source on the fine grid at this grid's output nodes."""
         return _resample(self.fine, S, self.field, _THREADS)
+
+
+class _NodeRays:
+    """The node rays of one altitude kept between orders for the slice gather
+    (:func:`._ms_kernels.gather_slices`).
+
+    The rays of an altitude that share their view zenith share their samples for every
+    solar zenith and azimuth, so the samples with weight are kept once per view zenith
+    — the (altitude, μ) part of their stencil and their weights (float64: a few MB) —
+    and, per
+    sample, solar-zenith node and azimuth node, the (θ_s, φ) part of the stencil (int16
+    node indices and float32 fractions, :meth:`locate_sun`, filled by order 1), found by
+    the same formulas as :class:`._ms_gather.Located`.  About 12 bytes per sample of
+    every node ray, against 20 for the located samples of each cell, and a gather that
+    reads a quarter of the table values per sample."""
+
+    def __init__(self, field: _Field, vm: _ViewMarch, keep: np.ndarray):
+        n_r, n_s, n_mu, n_phi = field.shape
+        N, M = vm.h.shape
+        # the rays of one view zenith (μ-major, φ-minor) are marched alike: take φ = 0's
+        rep = np.arange(n_mu) * n_phi
+        kk = keep[rep]  # (n_mu, M)
+        counts = np.count_nonzero(kk, axis=1)
+        self.starts = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+        k_idx, m_idx = np.nonzero(kk)  # along each ray, ray by ray
+        K = k_idx.size
+        C = vm.wt.shape[-2] * vm.wt.shape[-1]
+        h = np.ascontiguousarray(vm.h[rep[k_idx], m_idx], dtype=np.float64)
+        mu = np.ascontiguousarray(vm.mu[rep[k_idx], m_idx], dtype=np.float64)
+        self.hrow = np.empty(K, dtype=np.int64)
+        self.fh, self.fmu = np.empty(K), np.empty(K)
+        _ms_kernel("locate_geometry")(field.h_fine, field.mu_out, h, mu, n_s, n_mu + 2, n_phi,
+                                      self.hrow, self.fh, self.fmu)
+        # the fractions rounded to float32, as the located samples have always kept them
+        # (the published accuracy tables were computed so)
+        self.fh = self.fh.astype(np.float32).astype(np.float64)
+        self.fmu = self.fmu.astype(np.float32).astype(np.float64)
+        self.wt = np.ascontiguousarray(vm.wt.reshape(N, M, C)[rep[k_idx], m_idx], dtype=np.float64)
+        # flat sample index in the cell's (N, M) arrays of every kept sample and azimuth
+        self.sel = ((rep[k_idx][:, None] + np.arange(n_phi)[None, :]) * M
+                    + m_idx[:, None])  # (K, n_phi)
+        self.jt = np.empty((K, n_s, n_phi), dtype=np.int16)
+        self.mp = np.empty((K, n_s, n_phi), dtype=np.int16)
+        self.ft = np.empty((K, n_s, n_phi), dtype=np.float32)
+        self.fp = np.empty((K, n_s, n_phi), dtype=np.float32)
+        self.th_nodes = np.ascontiguousarray(field.ths, dtype=np.float64)
+        self.inv = _ms_kernel("lagrange_inverse_denominators")(self.th_nodes)
+        self.n_phi = n_phi
+        self.ground = vm.ground
+        self.t_end = vm.t_end
+        self.mus_end = np.empty((n_s, N))
+
+    def locate_sun(self, j: int, mc: _March) -> None:
+        """Fill solar-zenith node ``j``'s stencils from its march ``mc`` (order 1)."""
+        shape = self.sel.shape
+        mus = np.ascontiguousarray(mc.mus.reshape(-1)[self.sel]).reshape(-1)
+        cphi = np.ascontiguousarray(mc.cphi.reshape(-1)[self.sel]).reshape(-1)
+        jt, mp = np.empty(mus.size, dtype=np.int16), np.empty(mus.size, dtype=np.int16)
+        ft, fp = np.empty(mus.size), np.empty(mus.size)
+        _ms_kernel("locate_sun")(self.th_nodes, self.n_phi, mus, cphi, jt, ft, mp, fp)
+        self.jt[:, j] = jt.reshape(shape)
+        self.mp[:, j] = mp.reshape(shape)
+        self.ft[:, j] = ft.reshape(shape)
+        self.fp[:, j] = fp.reshape(shape)
+        self.mus_end[j] = mc.mus_end
+
+    def gather(self, logS, k0: int, k1: int, j_lo: int, j_hi: int, out: np.ndarray) -> None:
+        """Add the paths of view zeniths ``k0``–``k1`` at solar-zenith nodes ``j_lo``–``j_hi``
+        to ``out`` (n_s, n_mu, n_phi, C) for the log table ``logS`` (a
+        :class:`._ms_gather.LogTable`)."""
+        n_s, _, n_phi, _ = out.shape
+        n_out = logS.shape[2]
+        for c0, c1, flat in logS.blocks:
+            part = out[..., c0:c1] if len(logS.blocks) > 1 else out
+            buf = part if part.flags.c_contiguous else np.zeros(part.shape)
+            kern = _ms_kernel("gather_slices6" if c1 - c0 == 6 else "gather_slices")
+            kern(flat, n_s, n_out, n_phi, self.th_nodes, self.inv, self.starts, k0, k1,
+                 self.hrow, self.fh, self.fmu, np.ascontiguousarray(self.wt[:, c0:c1]),
+                 self.jt, self.ft, self.mp, self.fp, j_lo, j_hi, buf)
+            if buf is not part:
+                part[:, k0:k1] += buf[:, k0:k1]
 
 
 @dataclass
@@ -1844,6 +1977,7 @@ def _field_for(atm_obj, atm, grid, albedo, orders, tol=None):
                 # a field of one sun is rarely extended: its kept node rays (the bulk of
                 # the state's memory) go, and are marched again if more orders are asked
                 st.marches.clear()
+                st.rays.clear()
             # the states grew while they computed: hold the caches to their budget
             _trim(_CACHE, _CACHE_MAX, _CACHE_BYTES)
         return {"S_sum": S_sum, "orders": np.array(n), "tail": np.array(tail)}
