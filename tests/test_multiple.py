@@ -625,8 +625,13 @@ def test_kept_node_rays_match_rays_marched_again_for_many_wavelengths(monkeypatc
 
 def test_phase_matrix_fold_is_the_sum_over_mirrored_azimuths():
     """The discrete phase operator folds the full circle of quadrature azimuths onto
-    0–π: column φ_m collects φ_m and 2π − φ_m.  Reference: the operator assembled with
-    ``np.add.at`` (how it was built before), to 1e-15 relative."""
+    0–π: column φ_m collects φ_m and 2π − φ_m.  Reference: the operator assembled over
+    every pair of directions, the cosines as dot products and the fold with
+    ``np.add.at`` (how it was built before the operator used that the angle depends on
+    the azimuth difference only), to 1e-13 relative: the build forms each cosine as
+    μμ′ + ss′ cos Δφ, a few ulp (1e-16) from the dot product, which the phase functions
+    (relative slope ≤ ~20 for the haze's forward peak) and the row normalisation carry
+    to ≤ 1e-14."""
     from atmoscatter.sky import _quadrature as qd
     from atmoscatter.sky import multiple as M
 
@@ -646,7 +651,7 @@ def test_phase_matrix_fold_is_the_sum_over_mirrored_azimuths():
             p /= p.sum(axis=1, keepdims=True)
             ref = np.zeros((d_out.shape[0], n_mu * nphi))
             np.add.at(ref.T, target, p.T)
-            np.testing.assert_allclose(W[a, i], ref, rtol=1e-15, atol=1e-300)
+            np.testing.assert_allclose(W[a, i], ref, rtol=1e-13, atol=1e-300)
 
 
 @pytest.mark.parametrize("albedo", [0.0, 0.3])

@@ -941,10 +941,14 @@ class _Field:
         conserves energy).
         """
         nphi = self.grid.n_phi
-        m_full = np.arange(2 * (nphi - 1))
-        phi_full = np.pi * m_full / (nphi - 1)
-        d_out = self.directions(self.mu_out)
+        n2 = 2 * (nphi - 1)  # azimuths of the full circle
+        mu_o = self.mu_out
+        s_o = np.sqrt(np.maximum(1.0 - mu_o * mu_o, 0.0))
+        cos_d = np.cos(np.pi * np.arange(n2) / (nphi - 1))  # cos Δφ, Δφ = 0 … 2π − π/(nphi−1)
+        # column m′ of output azimuth m sits at Δφ = φ_m′ − φ_m: (m′ − m) mod n2
+        shift = (np.arange(n2)[None, :] - np.arange(nphi)[:, None]) % n2  # (nphi, n2)
         n_mu = self.grid.n_mu
+        n_out = mu_o.size
         n_dir = n_mu * nphi
         # one operator per distinct quadrature (altitudes below the limb split share the
         # double Gauss one), built over the thread pool into the result itself (no
@@ -953,24 +957,26 @@ class _Field:
         keys = {}
         for i, mu_q in enumerate(self.mu_q):
             keys.setdefault(mu_q.tobytes(), i)
-        W = np.empty((len(self.mu_q), len(self.atm.scatterers), d_out.shape[0], n_dir))
+        W = np.empty((len(self.mu_q), len(self.atm.scatterers), n_out * nphi, n_dir))
 
         def one(i):
+            # the scattering angle between output (μ_a, φ_m) and quadrature direction
+            # (μ_b, φ_m′) depends on φ_m′ − φ_m only (uniform azimuths over the circle), so
+            # the phase functions are evaluated once per (a, b, Δφ): nphi times fewer
+            # evaluations than over every pair of directions
             mu_q, w_q = self.mu_q[i], self.mu_wq[i]
-            mu_f, ph_f = np.meshgrid(mu_q, phi_full, indexing="ij")
-            st = np.sqrt(np.maximum(1.0 - mu_f * mu_f, 0.0))
-            dfull = np.stack([st * np.cos(ph_f), st * np.sin(ph_f), mu_f], axis=-1).reshape(-1, 3)
-            wfull = (w_q[:, None] * np.ones_like(ph_f)).ravel()
-            cos = np.clip(d_out @ dfull.T, -1.0, 1.0)
+            s_q = np.sqrt(np.maximum(1.0 - mu_q * mu_q, 0.0))
+            cos = np.clip(mu_o[:, None, None] * mu_q[None, :, None]
+                          + (s_o[:, None] * s_q[None, :])[:, :, None] * cos_d, -1.0, 1.0)
             for c, (_, _, phase) in enumerate(self.atm.scatterers):
-                p = np.asarray(phase(cos), dtype=float) * wfull[None, :]
-                p /= np.sum(p, axis=1, keepdims=True)
-                # fold φ and 2π − φ onto the half circle (the sums np.add.at over
-                # ``target`` would form, in the same order)
-                p = p.reshape(-1, n_mu, 2 * (nphi - 1))
-                folded = W[i, c].reshape(-1, n_mu, nphi)
-                folded[...] = p[:, :, :nphi]
-                folded[:, :, 1 : nphi - 1] += p[:, :, : nphi - 1 : -1]
+                p = np.asarray(phase(cos), dtype=float) * w_q[None, :, None]  # (n_out, n_mu, n2)
+                # rows normalised: every output azimuth's row holds the same values
+                p /= np.sum(p, axis=(1, 2), keepdims=True)
+                full = p[:, :, shift].transpose(0, 2, 1, 3)  # (n_out, nphi, n_mu, n2)
+                # fold φ and 2π − φ onto the half circle
+                folded = W[i, c].reshape(n_out, nphi, n_mu, nphi)
+                folded[...] = full[..., :nphi]
+                folded[..., 1 : nphi - 1] += full[..., : nphi - 1 : -1]
 
         _run_cells(one, list(keys.values()), "multiple scattering: phase operators")
         for i, mu_q in enumerate(self.mu_q):
