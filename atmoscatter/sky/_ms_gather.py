@@ -61,14 +61,16 @@ def _lagrange4_numpy(xs, x):
 LOG_FLOOR = 1e-30
 
 
-def log_table(table: np.ndarray) -> np.ndarray:
+def log_table(table: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
     """``log S`` of a source table (..., C), floored at :data:`LOG_FLOOR` × each channel's
-    maximum (and at the smallest normal number)."""
+    maximum (and at the smallest normal number); ``out``: an array of the table's shape
+    to write into (it may be a strided view)."""
     C = table.shape[-1]
     flat = table.reshape(-1, C)
     top = np.max(flat, axis=0) if flat.size else np.ones(C)
     floor = np.maximum(top * LOG_FLOOR, np.finfo(float).tiny)
-    return np.log(np.maximum(table, floor))
+    out = np.maximum(table, floor, out=out)
+    return np.log(out, out=out)
 
 
 class LogTable:
@@ -146,7 +148,8 @@ def _kernels():
             "order1_path": k.order1_path, "locate_geometry": k.locate_geometry,
             "locate_sun": k.locate_sun, "gather_slices": k.gather_slices,
             "gather_slices6": k.gather_slices6,
-            "lagrange_inverse_denominators": k.lagrange_inverse_denominators}
+            "lagrange_inverse_denominators": k.lagrange_inverse_denominators,
+            "refine_intervals": k.refine_intervals}
 
 
 def have_kernel() -> bool:

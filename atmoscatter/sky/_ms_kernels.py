@@ -543,3 +543,33 @@ def gather_slices6(logflat, n_s, n_out, n_phi, th_nodes, inv, starts, k0, k1, hr
                     out[j, k, p, 3] += w3 * np.exp(e3)
                     out[j, k, p, 4] += w4 * np.exp(e4)
                     out[j, k, p, 5] += w5 * np.exp(e5)
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def refine_intervals(logt, i_lo, i_hi, i0, w, r, out):  # pragma: no cover - compiled
+    """The values :func:`multiple._refine_log` inserts in the altitude intervals
+    ``i_lo``–``i_hi`` (exclusive) of ``logt`` (n, E): in interval ``i`` at ``out[r i + k]``
+    (k = 1 … r − 1) the cubic ``Σ_q w[i, k − 1, q] logt[i0[i] + q]`` (summed in the order of
+    ``q``) limited to the range of ``logt[i]`` and ``logt[i + 1]``; with fewer than four
+    nodes (``i0[i] < 0``) the linear step ``a + (b − a) k/r``."""
+    E = logt.shape[1]
+    for i in range(i_lo, i_hi):
+        q0 = i0[i]
+        for k in range(1, r):
+            o = r * i + k
+            w0 = w[i, k - 1, 0]
+            w1 = w[i, k - 1, 1]
+            w2 = w[i, k - 1, 2]
+            w3 = w[i, k - 1, 3]
+            t = k / r
+            for e in range(E):
+                a = logt[i, e]
+                b = logt[i + 1, e]
+                lo = a if a < b else b
+                hi = b if a < b else a
+                if q0 < 0:
+                    mid = a + (b - a) * t
+                else:
+                    mid = (w0 * logt[q0, e] + w1 * logt[q0 + 1, e]) + w2 * logt[q0 + 2, e]
+                    mid = mid + w3 * logt[q0 + 3, e]
+                out[o, e] = lo if mid < lo else (hi if mid > hi else mid)
