@@ -654,6 +654,41 @@ def test_phase_matrix_fold_is_the_sum_over_mirrored_azimuths():
             np.testing.assert_allclose(W[a, i], ref, rtol=1e-13, atol=1e-300)
 
 
+@pytest.mark.parametrize("turbidity, sun_zenith", [(2.5, None), (6.0, 96.0)])
+def test_source_in_azimuthal_modes_is_the_explicit_phase_operator(turbidity, sun_zenith):
+    """The source ``S = ∫ L p dω′`` of the field build, formed per azimuthal Fourier mode
+    (``_Field.phase_spectra``, cosine transforms of the field), against the explicit
+    operator over every pair of directions (``_Field.phase_matrices``, one matrix product
+    per altitude, how the build formed it before), for the order-1 field of a small grid
+    over every sun and of the default grid at civil twilight in haze: equal to 1e-12 of
+    each (altitude, solar zenith, wavelength) column's brightest value (round-off of the
+    transforms, ~1e-15 of it), which within a column (its values span less than 1e3) is
+    also 1e-9 of each value."""
+    from atmoscatter.sky import _quadrature as qd
+    from atmoscatter.sky import multiple as M
+
+    grid = MultipleScatteringGrid(n_altitude=6, n_sun=9, n_mu=8, n_phi=5)
+    if sun_zenith is not None:
+        grid = M.MULTIPLE_SCATTERING_GRID.for_sun(sun_zenith)
+    atm = qd.prepare_atmosphere(ac.earth_turbidity_atmosphere(turbidity))
+    st = M._FieldState(atm, grid, 0.2)
+    f, L = st.field, st.L
+    n_r, n_s, n_mu, n_phi = f.shape
+    nsc, nwl = len(atm.scatterers), atm.n_wavelengths
+    W = f.phase_matrices()
+    n_out = W.shape[2]
+    Lf = L.reshape(n_r, n_s, n_mu * n_phi, nwl).transpose(0, 2, 1, 3).reshape(n_r, -1, n_s * nwl)
+    ref = np.matmul(W.reshape(n_r, nsc * n_out, -1), Lf)
+    ref = ref.reshape(n_r, nsc, n_out, n_s, nwl).transpose(0, 3, 2, 1, 4).reshape(S_shape := f.shape_out + (nsc, nwl))
+    S = st._source(L)
+    assert S.shape == S_shape and np.all(S >= 0.0)
+    col = np.max(ref, axis=(2, 3), keepdims=True)
+    assert np.all(np.abs(S - ref) <= 1e-12 * col)
+    lit = ref > 1e-3 * col
+    assert lit.mean() > 0.5
+    np.testing.assert_allclose(S[lit], ref[lit], rtol=1e-9, atol=0)
+
+
 @pytest.mark.parametrize("albedo", [0.0, 0.3])
 @pytest.mark.parametrize("band", [False, True])
 def test_field_build_matches_the_reference_field(monkeypatch, albedo, band):

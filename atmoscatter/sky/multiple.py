@@ -931,58 +931,94 @@ class _Field:
         st = np.sqrt(np.maximum(1.0 - mm * mm, 0.0))
         return np.stack([st * np.cos(pp), st * np.sin(pp), mm], axis=-1).reshape(-1, 3)
 
+    def _phase_rows(self, i: int) -> np.ndarray:
+        """(n_sc, n_out, n_mu, 2(n_phi − 1)) the normalised phase weights of altitude
+        ``i``'s quadrature: ``p[c, a, b, D]`` from output direction ``(μ_a, φ_m)`` to
+        quadrature direction ``(μ_b, φ_m + D π/(n_phi − 1))``, for any ``m``.
+
+        The scattering angle between the two depends on the azimuth difference only
+        (uniform azimuths over the circle), so each phase function is evaluated once per
+        ``(a, b, D)``, times the quadrature weight of ``μ_b``; every row (an output
+        direction) is normalised to sum to one over the full circle of quadrature
+        directions, so that an isotropic field is reproduced exactly (the discrete
+        operator conserves energy)."""
+        nphi = self.grid.n_phi
+        n2 = 2 * (nphi - 1)  # azimuths of the full circle
+        mu_o, mu_q, w_q = self.mu_out, self.mu_q[i], self.mu_wq[i]
+        s_o = np.sqrt(np.maximum(1.0 - mu_o * mu_o, 0.0))
+        s_q = np.sqrt(np.maximum(1.0 - mu_q * mu_q, 0.0))
+        cos_d = np.cos(np.pi * np.arange(n2) / (nphi - 1))  # cos Δφ, Δφ = 0 … 2π − π/(nphi−1)
+        cos = np.clip(mu_o[:, None, None] * mu_q[None, :, None]
+                      + (s_o[:, None] * s_q[None, :])[:, :, None] * cos_d, -1.0, 1.0)
+        out = np.empty((len(self.atm.scatterers),) + cos.shape)
+        for c, (_, _, phase) in enumerate(self.atm.scatterers):
+            p = np.asarray(phase(cos), dtype=float) * w_q[None, :, None]  # (n_out, n_mu, n2)
+            p /= np.sum(p, axis=(1, 2), keepdims=True)
+            out[c] = p
+        return out
+
+    def _distinct_quadratures(self):
+        """``(first, same)``: the altitudes whose μ quadrature is the first of its kind
+        (altitudes below the limb split share the double Gauss one) and, per altitude, the
+        altitude whose operator it shares."""
+        keys = {}
+        for i, mu_q in enumerate(self.mu_q):
+            keys.setdefault(mu_q.tobytes(), i)
+        return list(keys.values()), [keys[mu_q.tobytes()] for mu_q in self.mu_q]
+
     def phase_matrices(self) -> np.ndarray:
         """(n_alt, n_sc, n_out, n_dir) row-normalised discrete phase operators.
 
         Row ``a`` integrates over the full circle of an altitude's quadrature directions
         (folded onto the half circle 0–π by the symmetry of the field about the solar
-        vertical) for the output direction ``a`` of ``mu_out`` × ``phi_nodes``.  Rows are
-        normalised so that an isotropic field is reproduced exactly (the discrete operator
-        conserves energy).
+        vertical) for the output direction ``a`` of ``mu_out`` × ``phi_nodes``
+        (:meth:`_phase_rows`).  The field build applies them in azimuthal Fourier space
+        (:meth:`phase_spectra`); this explicit form is the tests' reference.
         """
         nphi = self.grid.n_phi
-        n2 = 2 * (nphi - 1)  # azimuths of the full circle
-        mu_o = self.mu_out
-        s_o = np.sqrt(np.maximum(1.0 - mu_o * mu_o, 0.0))
-        cos_d = np.cos(np.pi * np.arange(n2) / (nphi - 1))  # cos Δφ, Δφ = 0 … 2π − π/(nphi−1)
+        n2 = 2 * (nphi - 1)
         # column m′ of output azimuth m sits at Δφ = φ_m′ − φ_m: (m′ − m) mod n2
         shift = (np.arange(n2)[None, :] - np.arange(nphi)[:, None]) % n2  # (nphi, n2)
-        n_mu = self.grid.n_mu
-        n_out = mu_o.size
-        n_dir = n_mu * nphi
-        # one operator per distinct quadrature (altitudes below the limb split share the
-        # double Gauss one), built over the thread pool into the result itself (no
-        # stacked copy): the phase functions and the products release the GIL, and each
-        # operator is written by one thread only
-        keys = {}
-        for i, mu_q in enumerate(self.mu_q):
-            keys.setdefault(mu_q.tobytes(), i)
-        W = np.empty((len(self.mu_q), len(self.atm.scatterers), n_out * nphi, n_dir))
+        n_mu, n_out = self.grid.n_mu, self.mu_out.size
+        first, same = self._distinct_quadratures()
+        W = np.empty((len(self.mu_q), len(self.atm.scatterers), n_out * nphi, n_mu * nphi))
 
-        def one(i):
-            # the scattering angle between output (μ_a, φ_m) and quadrature direction
-            # (μ_b, φ_m′) depends on φ_m′ − φ_m only (uniform azimuths over the circle), so
-            # the phase functions are evaluated once per (a, b, Δφ): nphi times fewer
-            # evaluations than over every pair of directions
-            mu_q, w_q = self.mu_q[i], self.mu_wq[i]
-            s_q = np.sqrt(np.maximum(1.0 - mu_q * mu_q, 0.0))
-            cos = np.clip(mu_o[:, None, None] * mu_q[None, :, None]
-                          + (s_o[:, None] * s_q[None, :])[:, :, None] * cos_d, -1.0, 1.0)
-            for c, (_, _, phase) in enumerate(self.atm.scatterers):
-                p = np.asarray(phase(cos), dtype=float) * w_q[None, :, None]  # (n_out, n_mu, n2)
-                # rows normalised: every output azimuth's row holds the same values
-                p /= np.sum(p, axis=(1, 2), keepdims=True)
+        def one(i):  # each operator written by one thread only
+            for c, p in enumerate(self._phase_rows(i)):
                 full = p[:, :, shift].transpose(0, 2, 1, 3)  # (n_out, nphi, n_mu, n2)
                 # fold φ and 2π − φ onto the half circle
                 folded = W[i, c].reshape(n_out, nphi, n_mu, nphi)
                 folded[...] = full[..., :nphi]
                 folded[..., 1 : nphi - 1] += full[..., : nphi - 1 : -1]
 
-        _run_cells(one, list(keys.values()), "multiple scattering: phase operators")
-        for i, mu_q in enumerate(self.mu_q):
-            if keys[mu_q.tobytes()] != i:
-                W[i] = W[keys[mu_q.tobytes()]]
+        _run_cells(one, first, "multiple scattering: phase operators")
+        for i, k in enumerate(same):
+            if k != i:
+                W[i] = W[k]
         return W
+
+    def phase_spectra(self) -> np.ndarray:
+        """(n_phi, n_alt, n_sc, n_out, n_mu) the phase operators of :meth:`phase_matrices`
+        in azimuthal Fourier space: ``P[κ, i, c, a, b]`` the real discrete Fourier
+        coefficient ``κ`` of :meth:`_phase_rows` over the azimuth difference (real: the
+        weights are even in it).  The operator is a circular correlation in azimuth, so
+        mode ``κ`` of the source is ``Σ_b P[…, κ, a, b]`` times mode ``κ`` of the field
+        (:meth:`_FieldState._source`): the same operator as the explicit matrices, to
+        round-off, for ``n_phi`` times fewer operations and 1/``n_phi`` of the memory."""
+        nphi = self.grid.n_phi
+        n_mu, n_out = self.grid.n_mu, self.mu_out.size
+        first, same = self._distinct_quadratures()
+        P = np.empty((nphi, len(self.mu_q), len(self.atm.scatterers), n_out, n_mu))
+
+        def one(i):
+            spec = np.fft.rfft(self._phase_rows(i), axis=-1).real  # (n_sc, n_out, n_mu, nphi)
+            P[:, i] = spec.transpose(3, 0, 1, 2)
+
+        _run_cells(one, first, "multiple scattering: phase operators")
+        for i, k in enumerate(same):
+            if k != i:
+                P[:, i] = P[:, k]
+        return P
 
 
 def _gauss_split(edges, counts):
@@ -1272,7 +1308,7 @@ class _FieldState:
 
         _run_cells(first, cells, "multiple scattering: order 1")
         views.clear()  # the packed weights live on in the kept marches
-        self.W = field.phase_matrices()  # (n_alt, nsc, n_out, ndir)
+        self.P = field.phase_spectra()  # (n_phi, n_alt, nsc, n_out, n_mu)
         self.L = L  # field of the highest order computed so far
         self._L_prev = None  # the order before it
         self.L_field = field  # the grid it lives on
@@ -1287,17 +1323,33 @@ class _FieldState:
         g = self.field.grid
         return None if g.high_orders is None else g.high_orders_from
 
-    def _source(self, L, f=None, W=None):
+    def _source(self, L, f=None, P=None):
+        """``S = ∫ L p dω′`` at the output nodes of ``f`` (``field.shape_out + (n_sc,
+        nwl)``) for a field ``L`` on its quadrature, with the phase operators in
+        azimuthal Fourier space ``P`` (:meth:`_Field.phase_spectra`): the field extended
+        to the full circle by its symmetry about the solar vertical, its real Fourier
+        modes over azimuth, per mode and altitude one matrix product over the view
+        zeniths, and back (cosine transforms).  Equal to round-off to the explicit operator
+        (:meth:`_Field.phase_matrices`; ``tests/test_multiple.py``); values below zero
+        by round-off (a dark column) are set to zero."""
         f = self.field if f is None else f
-        W = self.W if W is None else W
+        P = self.P if P is None else P
         n_r, n_s, n_mu, n_phi = f.shape
         nsc, nwl = len(self.atm.scatterers), self.atm.n_wavelengths
-        n_dir, n_out = n_mu * n_phi, W.shape[2]
-        # per altitude one matrix product (BLAS): (n_sc·n_out, n_dir) @ (n_dir, n_s·nwl)
-        Lf = L.reshape(n_r, n_s, n_dir, nwl).transpose(0, 2, 1, 3).reshape(n_r, n_dir, n_s * nwl)
-        S = np.matmul(W.reshape(n_r, nsc * n_out, n_dir), Lf)  # (n_r, nsc·n_out, n_s·nwl)
-        S = S.reshape(n_r, nsc, n_out, n_s, nwl).transpose(0, 3, 2, 1, 4)
-        return np.ascontiguousarray(S).reshape(f.shape_out + (nsc, nwl))
+        n_out = P.shape[3]
+        # the modes of a field even in φ over the full circle (a cosine transform of the
+        # half circle, as one matrix product: faster here than an FFT along a middle axis)
+        c = np.cos(np.pi * np.outer(np.arange(n_phi), np.arange(n_phi)) / (n_phi - 1))
+        w = np.full(n_phi, 2.0)
+        w[[0, -1]] = 1.0  # φ = 0 and π appear once on the circle, the others twice
+        modes = np.tensordot(c * w, L, axes=([1], [3]))  # (n_phi, n_r, n_s, n_mu, nwl)
+        modes = modes.transpose(0, 1, 3, 2, 4).reshape(n_phi, n_r, 1, n_mu, n_s * nwl)
+        Sm = np.matmul(P, modes)  # (n_phi, n_r, nsc, n_out, n_s·nwl): the mode axis first,
+        # so that the way back is one matrix product over a contiguous array
+        S = np.tensordot(c * (w / (2 * (n_phi - 1))), Sm, axes=([1], [0]))  # (n_phi, …)
+        S = S.reshape(n_phi, n_r, nsc, n_out, n_s, nwl).transpose(1, 4, 3, 0, 2, 5)
+        S = np.ascontiguousarray(S).reshape(f.shape_out + (nsc, nwl))
+        return np.maximum(S, 0.0, out=S)
 
     def _next_field(self, S):
         f = self.field
@@ -1450,7 +1502,7 @@ class _FieldState:
             src = self.field if k == K else self.high.field
             self.L = self.high.next_field(self.S[-1], src, E, first=(k == K))
             self.L_field = self.high.field
-            self.S.append(self._source(self.L, self.high.field, self.high.W))
+            self.S.append(self._source(self.L, self.high.field, self.high.P))
             self._drop_old()
             self._check_growth()
             return
@@ -1657,7 +1709,7 @@ class _HighOrders:
                  fine: _Field):
         self.atm, self.albedo, self.fine = atm, albedo, fine
         self.field = f = _Field(atm, grid)
-        self.W = f.phase_matrices()
+        self.P = f.phase_spectra()
         n_r, n_s = f.shape[:2]
         views = {}
 
