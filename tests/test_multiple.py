@@ -578,10 +578,14 @@ def test_compiled_order_one_matches_numpy(albedo):
         rays = fast.rays[i]
         vm = M._march_view(atm, atm.planet_radius + f.h_nodes[i], f.directions(f.mu_q[i]),
                            grid.order)
+        k_idx, m_idx = np.nonzero(rays.slot >= 0)  # the kept samples, in their order
+        assert np.array_equal(rays.slot[k_idx, m_idx], np.arange(k_idx.size))
+        M_ = vm.h.shape[1]
+        sel = ((k_idx * n_phi)[:, None] + np.arange(n_phi)) * M_ + m_idx[:, None]
         for j in range(n_s):
             th = f.ths[j]
             mc = M._march_sun(vm, np.array([np.sin(th), 0.0, np.cos(th)]))
-            mus, cphi = mc.mus.reshape(-1)[rays.sel], mc.cphi.reshape(-1)[rays.sel]
+            mus, cphi = mc.mus.reshape(-1)[sel], mc.cphi.reshape(-1)[sel]
             x = np.arccos(np.clip(mus, -1.0, 1.0))
             jt = np.clip(np.searchsorted(f.ths, x, side="right") - 1, 0, n_s - 2)
             ft = np.clip((x - f.ths[jt]) / (f.ths[jt + 1] - f.ths[jt]), 0.0, 1.0)

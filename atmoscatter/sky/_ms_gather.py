@@ -145,8 +145,9 @@ def _kernels():
     return {"locate_rows": k._locate_rows, "gather_log": k._gather_log,
             "gather_log6": k._gather_log6,
             "sun_transmittance": k.sun_transmittance, "march_weights": k.march_weights,
-            "order1_path": k.order1_path, "locate_geometry": k.locate_geometry,
-            "locate_sun": k.locate_sun, "gather_slices": k.gather_slices,
+            "order1_path": k.order1_path, "order1_located": k.order1_located,
+            "locate_geometry": k.locate_geometry,
+            "gather_slices": k.gather_slices,
             "gather_slices6": k.gather_slices6,
             "lagrange_inverse_denominators": k.lagrange_inverse_denominators,
             "refine_intervals": k.refine_intervals}

@@ -249,6 +249,31 @@ def sun_transmittance(h_nodes, tau, R, top, h, mus, out):  # pragma: no cover - 
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
+def _local_sun(r0, s_z, sig, s0, nu, rr, u):  # pragma: no cover - compiled
+    """Local sun zenith cosine and cosine of the relative azimuth at a node ``sig`` of a
+    view ray (the formulas of :func:`multiple._march_sun`)."""
+    x = (r0 * s_z + (sig - s0) * nu) / rr
+    ms = -1.0 if x < -1.0 else (1.0 if x > 1.0 else x)
+    d2 = (1.0 - u * u) * (1.0 - ms * ms)
+    den = np.sqrt(d2) if d2 > 0.0 else 0.0
+    if den > 1e-12:
+        y = (nu - u * ms) / den
+        return ms, (-1.0 if y < -1.0 else (1.0 if y > 1.0 else y))
+    return ms, 1.0
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _add_order1(h_nodes, tau, R, top, hm, ms, wt, P, n, m, t, path):  # pragma: no cover
+    """``path[n, w] += T_sun(hm, ms) Σ_i wt[n, m, i, w] P[n, i]`` (``t``: scratch)."""
+    _sun_t_one(h_nodes, tau, R, top, hm, ms, t)
+    for w in range(wt.shape[3]):
+        a = 0.0
+        for i in range(wt.shape[2]):
+            a += wt[n, m, i, w] * P[n, i]
+        path[n, w] += a * t[w]
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
 def order1_path(sigma, rr, s0, r0, s_z, nu, mu, h, wt, P, keep, h_nodes, tau, R, top,
                 mus_out, cphi_out, path):  # pragma: no cover - compiled
     """Order 1 of a node-ray batch for one sun direction, in one pass: the local sun
@@ -259,32 +284,43 @@ def order1_path(sigma, rr, s0, r0, s_z, nu, mu, h, wt, P, keep, h_nodes, tau, R,
     (:func:`sun_transmittance`).  The compiled twin of the NumPy order 1 of
     :class:`multiple._FieldState` (which forms the same sums with ``einsum``)."""
     N, M = sigma.shape
-    nsc = wt.shape[2]
-    nwl = wt.shape[3]
-    t = np.empty(nwl)
+    t = np.empty(wt.shape[3])
+    path[:, :] = 0.0
     for n in range(N):
-        for w in range(nwl):
-            path[n, w] = 0.0
         for m in range(M):
-            x = (r0 * s_z + (sigma[n, m] - s0[n]) * nu[n]) / rr[n, m]
-            ms = -1.0 if x < -1.0 else (1.0 if x > 1.0 else x)
+            ms, cphi = _local_sun(r0, s_z, sigma[n, m], s0[n], nu[n], rr[n, m], mu[n, m])
             mus_out[n, m] = ms
-            u = mu[n, m]
-            d2 = (1.0 - u * u) * (1.0 - ms * ms)
-            den = np.sqrt(d2) if d2 > 0.0 else 0.0
-            if den > 1e-12:
-                y = (nu[n] - u * ms) / den
-                cphi_out[n, m] = -1.0 if y < -1.0 else (1.0 if y > 1.0 else y)
-            else:
-                cphi_out[n, m] = 1.0
-            if not keep[n, m]:
-                continue
-            _sun_t_one(h_nodes, tau, R, top, h[n, m], ms, t)
-            for w in range(nwl):
-                a = 0.0
-                for i in range(nsc):
-                    a += wt[n, m, i, w] * P[n, i]
-                path[n, w] += a * t[w]
+            cphi_out[n, m] = cphi
+            if keep[n, m]:
+                _add_order1(h_nodes, tau, R, top, h[n, m], ms, wt, P, n, m, t, path)
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def order1_located(sigma, rr, s0, r0, s_z, nu, mu, h, wt, P, keep, h_nodes, tau, R, top,
+                   slot, th_nodes, j, jt, ft, mp, fp, path):  # pragma: no cover - compiled
+    """:func:`order1_path` for the node rays of one altitude and the solar-zenith node
+    ``j`` of the slice gather, which keeps, instead of the local angles, the (θ_s, φ)
+    stencil of every kept sample (:func:`_locate_sun_one`: ``jt``, ``ft``, ``mp``, ``fp``
+    at ``[s, j, p]``): ray ``n`` is view zenith ``n // n_phi`` and azimuth node
+    ``p = n % n_phi``, its node ``m`` is kept sample ``slot[n // n_phi, m]`` (−1: none)."""
+    N, M = sigma.shape
+    n_phi = jt.shape[2]
+    t = np.empty(wt.shape[3])
+    path[:, :] = 0.0
+    for n in range(N):
+        k = n // n_phi
+        p = n - k * n_phi
+        for m in range(M):
+            ms, cphi = _local_sun(r0, s_z, sigma[n, m], s0[n], nu[n], rr[n, m], mu[n, m])
+            s = slot[k, m]
+            if s >= 0:
+                jj, fj, mm, fm = _locate_sun_one(th_nodes, n_phi, ms, cphi)
+                jt[s, j, p] = jj
+                ft[s, j, p] = fj
+                mp[s, j, p] = mm
+                fp[s, j, p] = fm
+            if keep[n, m]:
+                _add_order1(h_nodes, tau, R, top, h[n, m], ms, wt, P, n, m, t, path)
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
@@ -354,24 +390,18 @@ def locate_geometry(h_nodes, mu_nodes, h, mu, n_s, n_out, n_phi, hrow, fh, fmu):
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
-def locate_sun(th_nodes, n_phi, mus, cphi, jt, ft, mp, fp):  # pragma: no cover - compiled
-    """The (θ_s, φ) part of the stencil of samples (flat arrays): the solar-zenith interval
-    ``jt`` and fraction ``ft``, the azimuth cell ``mp`` and fraction ``fp``, by the formulas
-    of :func:`_locate_rows`."""
-    for s in range(mus.shape[0]):
-        x = mus[s]
-        x = -1.0 if x < -1.0 else (1.0 if x > 1.0 else x)
-        j, fj = _locate(th_nodes, np.arccos(x))
-        y = cphi[s]
-        y = -1.0 if y < -1.0 else (1.0 if y > 1.0 else y)
-        xl = np.arccos(y) / np.pi * (n_phi - 1)
-        m = int(xl)
-        if m > n_phi - 2:
-            m = n_phi - 2
-        jt[s] = j
-        ft[s] = fj
-        mp[s] = m
-        fp[s] = xl - m
+def _locate_sun_one(th_nodes, n_phi, mus, cphi):  # pragma: no cover - compiled
+    """The (θ_s, φ) part of the stencil of one sample, by the formulas of
+    :func:`_locate_rows`: the solar-zenith interval ``j`` and fraction ``f_j``, the azimuth
+    cell ``m`` and fraction ``f_m``."""
+    x = -1.0 if mus < -1.0 else (1.0 if mus > 1.0 else mus)
+    j, fj = _locate(th_nodes, np.arccos(x))
+    y = -1.0 if cphi < -1.0 else (1.0 if cphi > 1.0 else cphi)
+    xl = np.arccos(y) / np.pi * (n_phi - 1)
+    m = int(xl)
+    if m > n_phi - 2:
+        m = n_phi - 2
+    return j, fj, m, xl - m
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
@@ -472,7 +502,7 @@ def gather_slices(logflat, n_s, n_out, n_phi, th_nodes, inv, starts, k0, k1, hro
     ray), rays ``k0``–``k1`` gathered; per sample ``hrow``, ``fh``, ``fmu``
     (:func:`locate_geometry`) and the weights ``wt`` (K, C); per sample, solar zenith
     node and azimuth node ``jt``, ``ft``, ``mp``, ``fp`` (K, n_s, n_phi)
-    (:func:`locate_sun`); ``inv``: :func:`lagrange_inverse_denominators`.  The
+    (:func:`order1_located`); ``inv``: :func:`lagrange_inverse_denominators`.  The
     solar-zenith nodes ``j_lo``–``j_hi`` (exclusive) are added to ``out`` (n_s, n_rays,
     n_phi, C)."""
     C = logflat.shape[1]

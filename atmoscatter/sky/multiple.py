@@ -1295,16 +1295,17 @@ class _FieldState:
             # function is constant along a straight ray) + ground-reflected direct sun
             P = np.stack([np.asarray(ph(np.clip(dirs @ s, -1.0, 1.0)), dtype=float)
                           for _, _, ph in atm.scatterers], axis=-1)  # (N, n_sc)
-            mc, path = _order1(vm, s, P, keep, sun_t, self.use_kernel)
+            if self.slices:  # order 1 and the stencils of the slice gather in one pass
+                path, mus_end = self.rays[i].order1(j, vm, s, P, keep, sun_t)
+            else:
+                mc, path = _order1(vm, s, P, keep, sun_t, self.use_kernel)
+                mus_end = mc.mus_end
+                if self.keep:
+                    self.marches[i, j] = _compact(field, mc, packed)
             if albedo > 0:
-                e0 = np.maximum(mc.mus_end, 0.0)[:, None] * sun_t(np.zeros_like(mc.mus_end),
-                                                                   mc.mus_end)
-                path += np.where(mc.ground[:, None], mc.t_end * albedo / np.pi * e0, 0.0)
+                e0 = np.maximum(mus_end, 0.0)[:, None] * sun_t(np.zeros_like(mus_end), mus_end)
+                path += np.where(vm.ground[:, None], vm.t_end * albedo / np.pi * e0, 0.0)
             L[i, j] = path.reshape(n_mu, n_phi, nwl)
-            if self.slices:
-                self.rays[i].locate_sun(j, mc)
-            elif self.keep:
-                self.marches[i, j] = _compact(field, mc, packed)
 
         _run_cells(first, cells, "multiple scattering: order 1")
         views.clear()  # the packed weights live on in the kept marches
@@ -1784,7 +1785,7 @@ class _NodeRays:
     — the (altitude, μ) part of their stencil and their weights (float64: a few MB) —
     and, per
     sample, solar-zenith node and azimuth node, the (θ_s, φ) part of the stencil (int16
-    node indices and float32 fractions, :meth:`locate_sun`, filled by order 1), found by
+    node indices and float32 fractions, filled by order 1: :meth:`order1`), found by
     the same formulas as :class:`._ms_gather.Located`.  About 12 bytes per sample of
     every node ray, against 20 for the located samples of each cell, and a gather that
     reads a quarter of the table values per sample."""
@@ -1811,9 +1812,9 @@ class _NodeRays:
         self.fh = self.fh.astype(np.float32).astype(np.float64)
         self.fmu = self.fmu.astype(np.float32).astype(np.float64)
         self.wt = np.ascontiguousarray(vm.wt.reshape(N, M, C)[rep[k_idx], m_idx], dtype=np.float64)
-        # flat sample index in the cell's (N, M) arrays of every kept sample and azimuth
-        self.sel = ((rep[k_idx][:, None] + np.arange(n_phi)[None, :]) * M
-                    + m_idx[:, None])  # (K, n_phi)
+        # the kept sample of each view zenith's node (−1: none)
+        self.slot = np.full((n_mu, M), -1, dtype=np.int64)
+        self.slot[k_idx, m_idx] = np.arange(K)
         self.jt = np.empty((K, n_s, n_phi), dtype=np.int16)
         self.mp = np.empty((K, n_s, n_phi), dtype=np.int16)
         self.ft = np.empty((K, n_s, n_phi), dtype=np.float32)
@@ -1825,19 +1826,21 @@ class _NodeRays:
         self.t_end = vm.t_end
         self.mus_end = np.empty((n_s, N))
 
-    def locate_sun(self, j: int, mc: _March) -> None:
-        """Fill solar-zenith node ``j``'s stencils from its march ``mc`` (order 1)."""
-        shape = self.sel.shape
-        mus = np.ascontiguousarray(mc.mus.reshape(-1)[self.sel]).reshape(-1)
-        cphi = np.ascontiguousarray(mc.cphi.reshape(-1)[self.sel]).reshape(-1)
-        jt, mp = np.empty(mus.size, dtype=np.int16), np.empty(mus.size, dtype=np.int16)
-        ft, fp = np.empty(mus.size), np.empty(mus.size)
-        _ms_kernel("locate_sun")(self.th_nodes, self.n_phi, mus, cphi, jt, ft, mp, fp)
-        self.jt[:, j] = jt.reshape(shape)
-        self.mp[:, j] = mp.reshape(shape)
-        self.ft[:, j] = ft.reshape(shape)
-        self.fp[:, j] = fp.reshape(shape)
-        self.mus_end[j] = mc.mus_end
+    def order1(self, j: int, vm: _ViewMarch, s: np.ndarray, P: np.ndarray, keep: np.ndarray,
+               sun_t: _SunTransmittance):
+        """Order 1 of solar-zenith node ``j`` (sun ``s``) of these rays — the path of
+        :func:`_order1`, (N, nwl) — in one compiled pass that also fills the node's
+        stencils (:func:`._ms_kernels.order1_located`); returns ``(path, mus_end)``."""
+        N, M = vm.h.shape
+        nu, mus_end = _sun_at_ends(vm, s)
+        path = np.empty((N, vm.wt.shape[-1]))
+        _ms_kernel("order1_located")(
+            vm.sigma, vm.rr, vm.s0, float(vm.r0), float(s[2]), nu, vm.mu, vm.h, vm.wt,
+            np.ascontiguousarray(P, dtype=float), keep, sun_t.h_nodes, sun_t.tau,
+            float(sun_t.R), float(sun_t.top), self.slot, self.th_nodes, int(j),
+            self.jt, self.ft, self.mp, self.fp, path)
+        self.mus_end[j] = mus_end
+        return path, mus_end
 
     def gather(self, logS, k0: int, k1: int, j_lo: int, j_hi: int, out: np.ndarray) -> None:
         """Add the paths of view zeniths ``k0``–``k1`` at solar-zenith nodes ``j_lo``–``j_hi``
