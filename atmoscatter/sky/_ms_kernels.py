@@ -311,8 +311,10 @@ def order1_located(sigma, rr, s0, r0, s_z, nu, mu, h, wt, P, keep, h_nodes, tau,
         k = n // n_phi
         p = n - k * n_phi
         for m in range(M):
-            ms, cphi = _local_sun(r0, s_z, sigma[n, m], s0[n], nu[n], rr[n, m], mu[n, m])
             s = slot[k, m]
+            if s < 0 and not keep[n, m]:
+                continue  # padding of a shorter ray: nothing to add, nothing to locate
+            ms, cphi = _local_sun(r0, s_z, sigma[n, m], s0[n], nu[n], rr[n, m], mu[n, m])
             if s >= 0:
                 jj, fj, mm, fm = _locate_sun_one(th_nodes, n_phi, ms, cphi)
                 jt[s, j, p] = jj

@@ -111,6 +111,7 @@ from . import _quadrature as qd
 from ._disk_memo import memo_values, table_key, table_meta
 from ._ms_gather import Located as _Located
 from ._ms_gather import LogTable as _LogTable
+from ._ms_gather import channel_max as _channel_max
 from ._ms_gather import gather as _gather_kernel
 from ._ms_gather import have_kernel as _have_kernel
 from ._ms_gather import kernel as _ms_kernel
@@ -1343,14 +1344,22 @@ class _FieldState:
         c = np.cos(np.pi * np.outer(np.arange(n_phi), np.arange(n_phi)) / (n_phi - 1))
         w = np.full(n_phi, 2.0)
         w[[0, -1]] = 1.0  # φ = 0 and π appear once on the circle, the others twice
-        modes = np.tensordot(c * w, L, axes=([1], [3]))  # (n_phi, n_r, n_s, n_mu, nwl)
-        modes = modes.transpose(0, 1, 3, 2, 4).reshape(n_phi, n_r, 1, n_mu, n_s * nwl)
-        Sm = np.matmul(P, modes)  # (n_phi, n_r, nsc, n_out, n_s·nwl): the mode axis first,
-        # so that the way back is one matrix product over a contiguous array
-        S = np.tensordot(c * (w / (2 * (n_phi - 1))), Sm, axes=([1], [0]))  # (n_phi, …)
-        S = S.reshape(n_phi, n_r, nsc, n_out, n_s, nwl).transpose(1, 4, 3, 0, 2, 5)
-        S = np.ascontiguousarray(S).reshape(f.shape_out + (nsc, nwl))
-        return np.maximum(S, 0.0, out=S)
+        fwd, back = c * w, c * (w / (2 * (n_phi - 1)))
+        S = np.empty(f.shape_out + (nsc, nwl))
+
+        def part(a):  # the altitudes a … a + step, over the thread pool
+            b = min(a + step, n_r)
+            modes = np.tensordot(fwd, L[a:b], axes=([1], [3]))  # (n_phi, b−a, n_s, n_mu, nwl)
+            modes = modes.transpose(0, 1, 3, 2, 4).reshape(n_phi, b - a, 1, n_mu, n_s * nwl)
+            Sm = np.matmul(P[:, a:b], modes)  # (n_phi, b−a, nsc, n_out, n_s·nwl): the mode
+            # axis first, so that the way back is one matrix product over a contiguous array
+            Sa = np.tensordot(back, Sm, axes=([1], [0]))  # (n_phi, …)
+            Sa = Sa.reshape(n_phi, b - a, nsc, n_out, n_s, nwl).transpose(1, 4, 3, 0, 2, 5)
+            np.maximum(Sa, 0.0, out=S[a:b])
+
+        step = max(1, -(-n_r // (2 * _THREADS)))
+        _run_cells(part, list(range(0, n_r, step)))
+        return S
 
     def _next_field(self, S):
         f = self.field
@@ -1430,7 +1439,7 @@ class _FieldState:
         e.g. in the planet's shadow, would otherwise keep a ratio above 1)."""
         out = np.setdiff1d(np.arange(Lnew.shape[1]), band)
         a, b = self.L, self._L_prev
-        sa, sb = np.sum(a, axis=(2, 3)), np.sum(b, axis=(2, 3))  # (n_r, n_s, nwl)
+        sa, sb = (np.einsum("ijmpw->ijw", x) for x in (a, b))  # (n_r, n_s, nwl)
         with np.errstate(divide="ignore", invalid="ignore"):
             r = np.where(sb > 0, sa / np.where(sb > 0, sb, 1.0), 0.0)
         cap = np.minimum(np.max(r[:, band], axis=(0, 1)), 0.98)  # (nwl,)
@@ -1535,8 +1544,7 @@ class _FieldState:
 
         def brightest(k):  # per wavelength, over the whole grid, of S^{k+1} (once each)
             if k not in self._brightest:
-                S = self.S[k]
-                self._brightest[k] = np.max(S, axis=tuple(range(S.ndim - 1)))
+                self._brightest[k] = _channel_max(self.S[k])
             return self._brightest[k]
 
         m_new, m_old = brightest(n - 1), brightest(n - 2)
@@ -1574,8 +1582,10 @@ class _FieldState:
         g = field.grid
         if g.sun_zenith is None:
             return 1e-6 * top
-        axes = tuple(a for a in range(total.ndim) if a not in (1, total.ndim - 1))
-        col = np.max(total, axis=axes, keepdims=True)  # (1, n_sun, 1, …, 1, nwl)
+        # the largest value per solar-zenith column and wavelength: (1, n_sun, 1, …, 1, nwl)
+        n_r, n_s, nwl = total.shape[0], total.shape[1], total.shape[-1]
+        col = np.max(total.reshape(n_r, n_s, -1), axis=0).reshape(n_s, -1, nwl).max(axis=1)
+        col = col.reshape((1, n_s) + (1,) * (total.ndim - 3) + (nwl,))
         j = int(np.argmin(np.abs(np.degrees(field.ths) - g.sun_zenith)))
         return 1e-6 * np.maximum(col, col[:, j:j + 1])
 
