@@ -693,6 +693,31 @@ def test_source_in_azimuthal_modes_is_the_explicit_phase_operator(turbidity, sun
     np.testing.assert_allclose(S[lit], ref[lit], rtol=1e-9, atol=0)
 
 
+@pytest.mark.parametrize("turbidity, sun_zenith", [(10.0, 90.0), (2.5, 96.0), (2.5, 105.0)])
+def test_band_orders_scale_the_source_outside_the_band(turbidity, sun_zenith):
+    """With a band of high orders, the field outside the band is the previous order's
+    times a factor per (altitude, solar zenith) cell and wavelength, and the build forms
+    the source there as the previous source times the same factors instead of applying
+    the phase operator again.  Reference: the source of the same field formed everywhere
+    (``_FieldState._source``), equal to 1e-13 of each column's brightest value (the
+    phase operator is linear and acts within a cell: round-off only)."""
+    from atmoscatter.sky import _quadrature as qd
+    from atmoscatter.sky import multiple as M
+
+    grid = MultipleScatteringGrid(n_altitude=6, n_sun=14, n_mu=8, n_phi=5, sun_nodes="scene",
+                                  band_orders_from=3, band_width=6.0).for_sun(sun_zenith)
+    atm = qd.prepare_atmosphere(ac.earth_turbidity_atmosphere(turbidity))
+    st = M._FieldState(atm, grid, 0.1)
+    band = st.field.band
+    assert band is not None and band.size < st.field.shape[1]
+    for _ in range(5):
+        st._extend()
+        assert st._scaled is not None or len(st.S) < grid.band_orders_from
+        full = st._source(st.L)
+        col = np.max(full, axis=(2, 3), keepdims=True)
+        assert np.all(np.abs(st.S[-1] - full) <= 1e-13 * col)
+
+
 @pytest.mark.parametrize("albedo", [0.0, 0.3])
 @pytest.mark.parametrize("band", [False, True])
 def test_field_build_matches_the_reference_field(monkeypatch, albedo, band):

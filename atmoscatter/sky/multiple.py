@@ -1319,13 +1319,14 @@ class _FieldState:
         self._sums: dict = {}  # running sums of the sources (:meth:`_prefix`)
         self._brightest: dict = {}  # per order, its source's maximum (:meth:`_check_growth`)
         self._table = None  # the buffer of each order's gather table (:meth:`_next_field`)
+        self._scaled = None  # (band, outside nodes, factors) of the order just extrapolated
 
     def _high_from(self):
         """The first order K on the grid's ``high_orders`` (``None``: no such grid)."""
         g = self.field.grid
         return None if g.high_orders is None else g.high_orders_from
 
-    def _source(self, L, f=None, P=None):
+    def _source(self, L, f=None, P=None, cols=None):
         """``S = ∫ L p dω′`` at the output nodes of ``f`` (``field.shape_out + (n_sc,
         nwl)``) for a field ``L`` on its quadrature, with the phase operators in
         azimuthal Fourier space ``P`` (:meth:`_Field.phase_spectra`): the field extended
@@ -1333,7 +1334,8 @@ class _FieldState:
         modes over azimuth, per mode and altitude one matrix product over the view
         zeniths, and back (cosine transforms).  Equal to round-off to the explicit operator
         (:meth:`_Field.phase_matrices`; ``tests/test_multiple.py``); values below zero
-        by round-off (a dark column) are set to zero."""
+        by round-off (a dark column) are set to zero.  ``cols``: ``(j_lo, j_hi)``, only
+        these solar-zenith nodes are formed (the rest of the result is left unset)."""
         f = self.field if f is None else f
         P = self.P if P is None else P
         n_r, n_s, n_mu, n_phi = f.shape
@@ -1346,16 +1348,18 @@ class _FieldState:
         w[[0, -1]] = 1.0  # φ = 0 and π appear once on the circle, the others twice
         fwd, back = c * w, c * (w / (2 * (n_phi - 1)))
         S = np.empty(f.shape_out + (nsc, nwl))
+        j_lo, j_hi = (0, n_s) if cols is None else cols
+        nc = j_hi - j_lo
 
         def part(a):  # the altitudes a … a + step, over the thread pool
             b = min(a + step, n_r)
-            modes = np.tensordot(fwd, L[a:b], axes=([1], [3]))  # (n_phi, b−a, n_s, n_mu, nwl)
-            modes = modes.transpose(0, 1, 3, 2, 4).reshape(n_phi, b - a, 1, n_mu, n_s * nwl)
-            Sm = np.matmul(P[:, a:b], modes)  # (n_phi, b−a, nsc, n_out, n_s·nwl): the mode
+            modes = np.tensordot(fwd, L[a:b, j_lo:j_hi], axes=([1], [3]))  # (n_phi, b−a, nc, n_mu, nwl)
+            modes = modes.transpose(0, 1, 3, 2, 4).reshape(n_phi, b - a, 1, n_mu, nc * nwl)
+            Sm = np.matmul(P[:, a:b], modes)  # (n_phi, b−a, nsc, n_out, nc·nwl): the mode
             # axis first, so that the way back is one matrix product over a contiguous array
             Sa = np.tensordot(back, Sm, axes=([1], [0]))  # (n_phi, …)
-            Sa = Sa.reshape(n_phi, b - a, nsc, n_out, n_s, nwl).transpose(1, 4, 3, 0, 2, 5)
-            np.maximum(Sa, 0.0, out=S[a:b])
+            Sa = Sa.reshape(n_phi, b - a, nsc, n_out, nc, nwl).transpose(1, 4, 3, 0, 2, 5)
+            np.maximum(Sa, 0.0, out=S[a:b, j_lo:j_hi])
 
         step = max(1, -(-n_r // (2 * _THREADS)))
         _run_cells(part, list(range(0, n_r, step)))
@@ -1400,7 +1404,8 @@ class _FieldState:
             _run_cells(cell, [(i, j) for i in range(f.shape[0]) for j in cols],
                        f"multiple scattering: order {k}")
         if band is not None:
-            self._extrapolate_outside(Lnew, band)
+            # the new source outside the band follows by the same factors (:meth:`_extend`)
+            self._scaled = (band,) + self._extrapolate_outside(Lnew, band)
         return Lnew
 
     def _slice_orders(self, logS, Lnew, j_lo, j_hi, E, stage):
@@ -1445,6 +1450,7 @@ class _FieldState:
         cap = np.minimum(np.max(r[:, band], axis=(0, 1)), 0.98)  # (nwl,)
         r_out = np.clip(r[:, out], 0.0, cap)
         Lnew[:, out] = a[:, out] * r_out[:, :, None, None, :]
+        return out, r_out
 
     def _split(self, n: int, copy: bool = True):
         """``(Σ of the sources S^1..S^n on this grid, Σ of those on high_orders or None)``,
@@ -1516,10 +1522,21 @@ class _FieldState:
             self._drop_old()
             self._check_growth()
             return
+        self._scaled = None
         if self.S:
             new = self._next_field(self.S[-1])
             self._L_prev, self.L = self.L, new  # _extrapolate_outside reads both
-        self.S.append(self._source(self.L))
+        if self._scaled is None or self.S[-1] is None:
+            S = self._source(self.L)
+        else:
+            # outside the band the new field is the previous one times a factor per cell
+            # (altitude × solar zenith) and wavelength, constant over its directions, so its
+            # source is the previous source times the same factor (the phase operator acts
+            # on the directions of a cell): formed only in the band
+            band, out, r_out = self._scaled
+            S = self._source(self.L, cols=(int(band[0]), int(band[-1]) + 1))
+            S[:, out] = self.S[-1][:, out] * r_out[:, :, None, None, None, :]
+        self.S.append(S)
         self._drop_old()
         self._check_growth()
 
