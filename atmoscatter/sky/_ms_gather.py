@@ -166,7 +166,7 @@ def _kernels():
             "gather_slices": k.gather_slices,
             "gather_slices6": k.gather_slices6,
             "lagrange_inverse_denominators": k.lagrange_inverse_denominators,
-            "refine_intervals": k.refine_intervals}
+            "refine_intervals": k.refine_intervals, "decay_test": k.decay_test}
 
 
 def have_kernel() -> bool:

@@ -605,3 +605,38 @@ def refine_intervals(logt, i_lo, i_hi, i0, w, r, out):  # pragma: no cover - com
                     mid = (w0 * logt[q0, e] + w1 * logt[q0 + 1, e]) + w2 * logt[q0 + 2, e]
                     mid = mid + w3 * logt[q0 + 3, e]
                 out[o, e] = lo if mid < lo else (hi if mid > hi else mid)
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def decay_test(last, prev, total, floor, r_all, g_prev, has_prev, g):  # pragma: no cover
+    """The decay test of :meth:`multiple._FieldState.converged_sum` in one pass:
+    ``g = r/(1 − r)`` with ``r = last/prev`` where ``prev`` is above the floor (else
+    ``r_all``) clipped to [0, 0.98], written to ``g``; returns ``(rel, drift)``, the
+    largest ``last g/(total + floor)`` and (with ``has_prev``) the largest
+    ``|g − g_prev|/max(g, 1e-300)`` where ``last`` is above the floor (else −inf).
+
+    ``last``, ``prev``, ``total``, ``g_prev``, ``g``: (n_r, n_cols, K) with the
+    wavelength the fastest index of ``K``; ``floor`` (n_cols, nwl).  The operations of
+    the NumPy lines, element by element, so the same values."""
+    n_r, nc, K = last.shape
+    nwl = floor.shape[1]
+    rel = -np.inf
+    drift = -np.inf
+    for i in range(n_r):
+        for j in range(nc):
+            for k in range(K):
+                fl = floor[j, k % nwl]
+                lt = last[i, j, k]
+                pv = prev[i, j, k]
+                r = lt / pv if pv > fl else r_all
+                r = min(max(r, 0.0), 0.98)
+                gg = r / (1.0 - r)
+                g[i, j, k] = gg
+                v = lt * gg / (total[i, j, k] + fl)
+                if v > rel or v != v:
+                    rel = v
+                if has_prev:
+                    d = abs(gg - g_prev[i, j, k]) / max(gg, 1e-300) * (1.0 if lt > fl else 0.0)
+                    if d > drift or d != d:
+                        drift = d
+    return rel, drift
