@@ -1319,7 +1319,7 @@ class _FieldState:
         self._sums: dict = {}  # running sums of the sources (:meth:`_prefix`)
         self._brightest: dict = {}  # per order, its source's maximum (:meth:`_check_growth`)
         self._table = None  # the buffer of each order's gather table (:meth:`_next_field`)
-        self._scaled = None  # (band, outside nodes, factors) of the order just extrapolated
+        self._scaled = None  # (band, outside slices, factors) of the order just extrapolated
 
     def _high_from(self):
         """The first order K on the grid's ``high_orders`` (``None``: no such grid)."""
@@ -1442,15 +1442,16 @@ class _FieldState:
         wavelength times the ratio of its summed radiance in the last two orders, capped
         at the largest such ratio in the band and at 0.98 (a cell dark in an early order,
         e.g. in the planet's shadow, would otherwise keep a ratio above 1)."""
-        out = np.setdiff1d(np.arange(Lnew.shape[1]), band)
         a, b = self.L, self._L_prev
         sa, sb = (np.einsum("ijmpw->ijw", x) for x in (a, b))  # (n_r, n_s, nwl)
         with np.errstate(divide="ignore", invalid="ignore"):
             r = np.where(sb > 0, sa / np.where(sb > 0, sb, 1.0), 0.0)
         cap = np.minimum(np.max(r[:, band], axis=(0, 1)), 0.98)  # (nwl,)
-        r_out = np.clip(r[:, out], 0.0, cap)
-        Lnew[:, out] = a[:, out] * r_out[:, :, None, None, :]
-        return out, r_out
+        r = np.clip(r, 0.0, cap)  # (read outside the band only)
+        outside = _outside(band, Lnew.shape[1])
+        for sl in outside:  # two runs of nodes (slices: no fancy-index copies)
+            np.multiply(a[:, sl], r[:, sl, None, None, :], out=Lnew[:, sl])
+        return outside, r
 
     def _split(self, n: int, copy: bool = True):
         """``(Σ of the sources S^1..S^n on this grid, Σ of those on high_orders or None)``,
@@ -1473,8 +1474,15 @@ class _FieldState:
             if b - a <= 1:
                 sums[(a, b)] = self._order(a) if b > a else np.zeros_like(self._order(0))
             else:
-                sums[(a, b)] = self._prefix(a, b - 1, copy=False) + self._order(b - 1)
-            sums.pop((a, b - 2), None)  # only the last two are read again
+                prev = self._prefix(a, b - 1, copy=False)
+                # only the last two are read again: the sum before them gives its memory
+                # to the new one (a 24 MB array per order of the default grid), unless it
+                # is a source itself (a sum of one order)
+                old = sums.pop((a, b - 2), None)
+                if old is None or old.shape != prev.shape or any(old is x for x in self.S):
+                    old = None
+                sums[(a, b)] = np.add(prev, self._order(b - 1), out=old)
+            sums.pop((a, b - 2), None)
         return sums[(a, b)].copy() if copy else sums[(a, b)]
 
     def _order(self, k: int) -> np.ndarray:
@@ -1533,9 +1541,10 @@ class _FieldState:
             # (altitude × solar zenith) and wavelength, constant over its directions, so its
             # source is the previous source times the same factor (the phase operator acts
             # on the directions of a cell): formed only in the band
-            band, out, r_out = self._scaled
+            band, outside, r = self._scaled
             S = self._source(self.L, cols=(int(band[0]), int(band[-1]) + 1))
-            S[:, out] = self.S[-1][:, out] * r_out[:, :, None, None, None, :]
+            for sl in outside:
+                np.multiply(self.S[-1][:, sl], r[:, sl, None, None, None, :], out=S[:, sl])
         self.S.append(S)
         self._drop_old()
         self._check_growth()
@@ -1636,7 +1645,8 @@ class _FieldState:
         # contiguous run of solar-zenith nodes: a view, no copy)
         test = slice(None) if band is None else slice(int(band[0]), int(band[-1]) + 1)
         while True:
-            self.source_sum(k)
+            while len(self.S) < k - 1:  # (source_sum without its copy of the sum)
+                self._extend()
             # the kept running sums themselves (no copy: only read here); the sum returned
             # is a fresh array on this grid
             low, high = self._split(k - 1, copy=False)
@@ -1674,6 +1684,12 @@ class _FieldState:
                         return self._on_grid(*self._split(k - 1)), k, rel
                 g_prev = g
             k += 1
+
+
+def _outside(band: np.ndarray, n: int) -> tuple[slice, slice]:
+    """The solar-zenith nodes of ``n`` outside a band (a contiguous run of nodes), as the
+    two slices below and above it."""
+    return slice(0, int(band[0])), slice(int(band[-1]) + 1, n)
 
 
 def _decay_test(last, prev, total, floor, r_all, sl, g_prev):
