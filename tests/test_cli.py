@@ -213,8 +213,10 @@ def test_precompute_progress_shows_each_multiple_scattering_order(monkeypatch):
     assert not _progress.active()
     # first the node rays of each of the 4 altitudes are marched (shared by every sun);
     # orders=4: the fields of orders 1-3 are built (the gather adds the last order);
-    # 4 altitudes × 10 suns = 40 cells each, every cell reported once; after order 1 the
-    # phase operators, one per distinct view-cosine quadrature (at most one per altitude)
+    # order 1 in 4 altitudes × 10 suns = 40 cells, the later orders in work units of a
+    # few view zeniths of one altitude for every sun (the slice gather: 4 altitudes × 4
+    # view zeniths here), every cell or unit reported once; after order 1 the phase
+    # operators, one per distinct view-cosine quadrature (at most one per altitude)
     stages = [f"multiple scattering: order {k}" for k in (1, 2, 3)]
     phase = "multiple scattering: phase operators"
     assert list(dict.fromkeys(a[0] for a in seen)) == (
@@ -223,8 +225,9 @@ def test_precompute_progress_shows_each_multiple_scattering_order(monkeypatch):
     n_phase = [t for s_, d, t in seen if s_ == phase]
     assert 1 <= n_phase[0] <= 4 and sorted(d for s_, d, t in seen if s_ == phase) == list(
         range(1, n_phase[0] + 1))
-    for st in stages:
-        assert sorted(d for s_, d, t in seen if s_ == st) == list(range(1, 41))
+    for st, n in zip(stages, (40, 16, 16), strict=True):
+        assert sorted(d for s_, d, t in seen if s_ == st) == list(range(1, n + 1))
+        assert {t for s_, d, t in seen if s_ == st} == {n}
         assert st in "".join(err.parts)
 
 

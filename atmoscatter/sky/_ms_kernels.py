@@ -1,5 +1,13 @@
 """Compiled kernels of :mod:`atmoscatter.sky._ms_gather` (private; imported on first use,
-so that ``import atmoscatter`` does not import numba)."""
+so that ``import atmoscatter`` does not import numba).
+
+One piece: every numba kernel of the multiple-scattering field build lives here, so that
+one lazy import (:func:`atmoscatter._lazy.kernels`) loads them all, beside the small
+compiled helpers they share — node location, the Lagrange weights, the sun's
+transmittance, the local sun angles — which every gather and order-1 kernel calls (the
+per-cell gather of the caller's rays and the slice gather of the field's node rays must
+locate and weight a sample the same way: one definition of each step keeps them equal to
+round-off)."""
 
 import numba
 import numpy as np
