@@ -54,8 +54,11 @@ changes fastest:
   the caller's own order 1 is :func:`single_scattering`, exact.
 
 ``S^i`` is obtained with a discrete phase matrix whose rows are normalised (energy is
-conserved exactly on the grid) and gathered along every ray by a compiled kernel, weighted
-by the exact density and transmittance on graded Gauss–Legendre panels.  With
+conserved exactly on the grid), applied per azimuthal Fourier mode (it depends on the
+azimuth difference only: :meth:`_Field.phase_spectra`), and gathered along every ray by a
+compiled kernel, weighted by the exact density and transmittance on graded
+Gauss–Legendre panels; the grid's node rays by slices (:class:`_NodeRays`: rays of one
+altitude and view zenith share their samples for every sun and azimuth).  With
 ``orders=None`` successive orders are summed until the geometric tail estimate is small
 and the tail itself is added (:meth:`_FieldState.converged_sum`).  Large batches (≥
 ``TABLE_THRESHOLD`` directions, observer inside the atmosphere) tabulate the smooth
