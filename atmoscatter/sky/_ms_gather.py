@@ -81,12 +81,18 @@ def log_table(table: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
     """``log S`` of a source table (..., C), floored at :data:`LOG_FLOOR` × each channel's
     maximum (and at the smallest normal number); ``out``: an array of the table's shape
     to write into (it may be a strided view)."""
+    floor = log_floor(table)
+    out = np.maximum(table, floor, out=out)
+    return np.log(out, out=out)
+
+
+def log_floor(table: np.ndarray) -> np.ndarray:
+    """The floor of :func:`log_table` per channel: :data:`LOG_FLOOR` × the channel's
+    maximum, at least the smallest normal number."""
     C = table.shape[-1]
     flat = table.reshape(-1, C)
     top = channel_max(flat) if flat.size else np.ones(C)
-    floor = np.maximum(top * LOG_FLOOR, np.finfo(float).tiny)
-    out = np.maximum(table, floor, out=out)
-    return np.log(out, out=out)
+    return np.maximum(top * LOG_FLOOR, np.finfo(float).tiny)
 
 
 class LogTable:

@@ -118,7 +118,7 @@ from ._ms_gather import channel_max as _channel_max
 from ._ms_gather import gather as _gather_kernel
 from ._ms_gather import have_kernel as _have_kernel
 from ._ms_gather import kernel as _ms_kernel
-from ._ms_gather import log_table as _log_table
+from ._ms_gather import log_floor as _log_floor
 from ._ms_gather import pack_weights as _pack_weights
 from ._single_rules import _Batch, _extinction_scale
 from ._sky_table import _SkyTable
@@ -1184,7 +1184,15 @@ def _log_source(field: _Field, S_flat: np.ndarray, out: np.ndarray | None = None
     if out is None or out.shape != shape or out.dtype != np.float64:
         out = np.empty(shape)
     nodes = out[0 :: field.grid.altitude_refine]
-    _log_table(np.ascontiguousarray(S_flat), out=nodes)
+    S_flat = np.ascontiguousarray(S_flat)
+    floor = _log_floor(S_flat)  # (:func:`._ms_gather.log_table`, by altitudes in threads)
+
+    def part(a):
+        sl = slice(a, a + step)
+        np.log(np.maximum(S_flat[sl], floor, out=nodes[sl]), out=nodes[sl])
+
+    step = max(1, -(-S_flat.shape[0] // (2 * _THREADS)))
+    _run_cells(part, list(range(0, S_flat.shape[0], step)))
     return _refine_log(field, nodes, out)
 
 
@@ -1413,31 +1421,37 @@ class _FieldState:
 
     def _slice_orders(self, logS, Lnew, j_lo, j_hi, E, stage):
         """The next order's field ``Lnew`` at the solar-zenith nodes ``j_lo``–``j_hi``
-        (exclusive) from the kept node rays by the slice gather (:class:`_NodeRays`):
-        work units of a few view zeniths of one altitude over the thread pool, then per
-        altitude the sum over the scatterers and the ground's reflection of ``E``."""
+        (exclusive) from the kept node rays by the slice gather (:class:`_NodeRays`), in
+        work units of a few view zeniths of one altitude over the thread pool, each also
+        summing its rays over the scatterers and adding the ground's reflection of
+        ``E``."""
         f = self.field
         n_r, n_s, n_mu, n_phi = f.shape
         nsc, nwl = len(self.atm.scatterers), self.atm.n_wavelengths
+        nj = j_hi - j_lo
         outs = [np.zeros((n_s, n_mu, n_phi, nsc * nwl)) for _ in range(n_r)]
         step = max(1, n_mu // 4)
         units = [(i, k) for i in range(n_r) for k in range(0, n_mu, step)]
 
         def unit(ik):
-            i, k = ik
-            self.rays[i].gather(logS, k, min(k + step, n_mu), j_lo, j_hi, outs[i])
+            i, k0 = ik
+            k1 = min(k0 + step, n_mu)
+            rays = self.rays[i]
+            rays.gather(logS, k0, k1, j_lo, j_hi, outs[i])
+            o = outs[i][j_lo:j_hi, k0:k1].reshape(nj, k1 - k0, n_phi, nsc, nwl)
+            path = o[..., 0, :].copy()
+            for c in range(1, nsc):  # the scatterers in turn (as a sum over their axis)
+                path += o[..., c, :]
+            if E is not None:
+                rs = slice(k0 * n_phi, k1 * n_phi)  # these view zeniths' rays
+                for j in range(j_lo, j_hi):
+                    e = _interp_e(f, E, rays.mus_end[j, rs])
+                    path[j - j_lo] += np.where(rays.ground[rs, None],
+                                               rays.t_end[rs] * self.albedo / np.pi * e,
+                                               0.0).reshape(k1 - k0, n_phi, nwl)
+            Lnew[i, j_lo:j_hi, k0:k1] = path
 
         _run_cells(unit, units, stage)
-        for i in range(n_r):
-            path = outs[i][j_lo:j_hi].reshape(j_hi - j_lo, n_mu * n_phi, nsc, nwl).sum(axis=2)
-            if E is not None:
-                rays = self.rays[i]
-                for j in range(j_lo, j_hi):
-                    e = _interp_e(f, E, rays.mus_end[j])
-                    path[j - j_lo] += np.where(rays.ground[:, None],
-                                               rays.t_end * self.albedo / np.pi * e, 0.0)
-            Lnew[i, j_lo:j_hi] = path.reshape(j_hi - j_lo, n_mu, n_phi, nwl)
-            outs[i] = None
 
     def _extrapolate_outside(self, Lnew, band):
         """Fill the solar-zenith nodes outside ``band`` of the order being computed
