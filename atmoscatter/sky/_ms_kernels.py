@@ -311,26 +311,45 @@ def order1_located(sigma, rr, s0, r0, s_z, nu, mu, h, wt, P, keep, h_nodes, tau,
     stencil of every kept sample (:func:`_locate_sun_one`: ``jt``, ``ft``, ``mp``, ``fp``
     at ``[s, j, p]``): ray ``n`` is view zenith ``n // n_phi`` and azimuth node
     ``p = n % n_phi``, its node ``m`` is kept sample ``slot[n // n_phi, m]`` (−1: none)."""
+    # two passes over the nodes (the same local angles in each): one loop doing both was
+    # 1.6 times slower on the 2-core machine
+    _order1_pass(sigma, rr, s0, r0, s_z, nu, mu, h, wt, P, keep, h_nodes, tau, R, top, path)
+    _locate_pass(sigma, rr, s0, r0, s_z, nu, mu, slot, th_nodes, j, jt, ft, mp, fp)
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _order1_pass(sigma, rr, s0, r0, s_z, nu, mu, h, wt, P, keep, h_nodes, tau, R, top,
+                 path):  # pragma: no cover - compiled
+    """The path of :func:`order1_path` alone (no local angles written)."""
     N, M = sigma.shape
-    n_phi = jt.shape[2]
     t = np.empty(wt.shape[3])
     path[:, :] = 0.0
+    for n in range(N):
+        for m in range(M):
+            if not keep[n, m]:
+                continue
+            ms, _ = _local_sun(r0, s_z, sigma[n, m], s0[n], nu[n], rr[n, m], mu[n, m])
+            _add_order1(h_nodes, tau, R, top, h[n, m], ms, wt, P, n, m, t, path)
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _locate_pass(sigma, rr, s0, r0, s_z, nu, mu, slot, th_nodes, j, jt, ft, mp, fp):  # pragma: no cover
+    """The (θ_s, φ) stencils of :func:`order1_located`'s kept samples."""
+    N, M = sigma.shape
+    n_phi = jt.shape[2]
     for n in range(N):
         k = n // n_phi
         p = n - k * n_phi
         for m in range(M):
             s = slot[k, m]
-            if s < 0 and not keep[n, m]:
-                continue  # padding of a shorter ray: nothing to add, nothing to locate
+            if s < 0:
+                continue
             ms, cphi = _local_sun(r0, s_z, sigma[n, m], s0[n], nu[n], rr[n, m], mu[n, m])
-            if s >= 0:
-                jj, fj, mm, fm = _locate_sun_one(th_nodes, n_phi, ms, cphi)
-                jt[s, j, p] = jj
-                ft[s, j, p] = fj
-                mp[s, j, p] = mm
-                fp[s, j, p] = fm
-            if keep[n, m]:
-                _add_order1(h_nodes, tau, R, top, h[n, m], ms, wt, P, n, m, t, path)
+            jj, fj, mm, fm = _locate_sun_one(th_nodes, n_phi, ms, cphi)
+            jt[s, j, p] = jj
+            ft[s, j, p] = fj
+            mp[s, j, p] = mm
+            fp[s, j, p] = fm
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
