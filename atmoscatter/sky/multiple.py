@@ -1429,7 +1429,9 @@ class _FieldState:
         n_r, n_s, n_mu, n_phi = f.shape
         nsc, nwl = len(self.atm.scatterers), self.atm.n_wavelengths
         nj = j_hi - j_lo
-        outs = [np.zeros((n_s, n_mu, n_phi, nsc * nwl)) for _ in range(n_r)]
+        # per altitude, one array per slab of channels of the table (six at a time)
+        outs = [[np.zeros((n_s, n_mu, n_phi, c1 - c0)) for c0, c1, _ in logS.blocks]
+                for _ in range(n_r)]
         step = max(1, n_mu // 4)
         units = [(i, k) for i in range(n_r) for k in range(0, n_mu, step)]
 
@@ -1438,7 +1440,8 @@ class _FieldState:
             k1 = min(k0 + step, n_mu)
             rays = self.rays[i]
             rays.gather(logS, k0, k1, j_lo, j_hi, outs[i])
-            o = outs[i][j_lo:j_hi, k0:k1].reshape(nj, k1 - k0, n_phi, nsc, nwl)
+            o = np.concatenate([b[j_lo:j_hi, k0:k1] for b in outs[i]], axis=-1)
+            o = o.reshape(nj, k1 - k0, n_phi, nsc, nwl)
             path = o[..., 0, :].copy()
             for c in range(1, nsc):  # the scatterers in turn (as a sum over their axis)
                 path += o[..., c, :]
@@ -1924,21 +1927,18 @@ class _NodeRays:
         self.mus_end[j] = mus_end
         return path, mus_end
 
-    def gather(self, logS, k0: int, k1: int, j_lo: int, j_hi: int, out: np.ndarray) -> None:
+    def gather(self, logS, k0: int, k1: int, j_lo: int, j_hi: int, outs: list) -> None:
         """Add the paths of view zeniths ``k0``–``k1`` at solar-zenith nodes ``j_lo``–``j_hi``
-        to ``out`` (n_s, n_mu, n_phi, C) for the log table ``logS`` (a
-        :class:`._ms_gather.LogTable`)."""
-        n_s, _, n_phi, _ = out.shape
+        for the log table ``logS`` (a :class:`._ms_gather.LogTable`) to ``outs``: one array
+        (n_s, n_mu, n_phi, c1 − c0) per slab ``(c0, c1)`` of the table's channels."""
+        n_s, _, n_phi, _ = outs[0].shape
         n_out = logS.shape[2]
-        for c0, c1, flat in logS.blocks:
-            part = out[..., c0:c1] if len(logS.blocks) > 1 else out
-            buf = part if part.flags.c_contiguous else np.zeros(part.shape)
+        for (c0, c1, flat), out in zip(logS.blocks, outs, strict=True):
             kern = _ms_kernel("gather_slices6" if c1 - c0 == 6 else "gather_slices")
+            wt = self.wt if len(logS.blocks) == 1 else np.ascontiguousarray(self.wt[:, c0:c1])
             kern(flat, n_s, n_out, n_phi, self.th_nodes, self.inv, self.starts, k0, k1,
-                 self.hrow, self.fh, self.fmu, np.ascontiguousarray(self.wt[:, c0:c1]),
-                 self.jt, self.ft, self.mp, self.fp, j_lo, j_hi, buf)
-            if buf is not part:
-                part[:, k0:k1] += buf[:, k0:k1]
+                 self.hrow, self.fh, self.fmu, wt, self.jt, self.ft, self.mp, self.fp,
+                 j_lo, j_hi, out)
 
 
 @dataclass
