@@ -1150,6 +1150,24 @@ def test_in_process_caches_hold_their_memory_budget(monkeypatch):
     M._clear_process_caches()
 
 
+@pytest.mark.parametrize("sun_zenith", [60.0, 96.0])
+def test_the_default_grid_never_lets_an_order_outshine_the_one_before(sun_zenith):
+    """The growth check's physics on the grid users get: no order's brightest source may
+    exceed the previous order's (row-normalised phase operators, scattering weights
+    summing to less than one), so the largest growth the field state records over the
+    automatic sum (``_FieldState.growth``) stays below 1 at sun 30° and in civil twilight
+    (measured 0.46–0.56 at turbidity 2.5), far from the 1.5 at which
+    ``GridTooCoarseError`` is raised."""
+    from atmoscatter.sky import _quadrature as qd
+    from atmoscatter.sky import multiple as M
+
+    atm = qd.prepare_atmosphere(ac.earth_turbidity_atmosphere(2.5))
+    st = M._FieldState(atm, M.MULTIPLE_SCATTERING_GRID.for_sun(sun_zenith), 0.0)
+    _, orders, _ = st.converged_sum(M.DEFAULT_ORDER_TOLERANCE, M._MAX_AUTO_ORDERS)
+    assert orders >= 4
+    assert 0.0 < st.growth < 1.0
+
+
 def test_a_grid_too_coarse_for_twilight_raises_instead_of_returning_garbage():
     """No order of scattering can be brighter than the one before (the phase operators are
     row-normalised and a ray scatters again with probability < 1), so a field whose
