@@ -509,7 +509,7 @@ def test_compiled_gather_matches_the_reference(n_channels):
     np.testing.assert_allclose(threaded, np.tile(ref, (8, 1)), rtol=1e-12, atol=0)
 
 
-def test_six_channel_gather_kernel_matches_the_generic_one():
+def test_six_channel_gather_kernel_matches_the_generic_one(monkeypatch):
     """The written-out six-channel kernel (two scatterers × RGB, every Earth and Mars
     preset) against the generic blocked kernel on the same located samples of a real
     field's node rays: the same products in the same order, so equal to round-off
@@ -522,12 +522,8 @@ def test_six_channel_gather_kernel_matches_the_generic_one():
         pytest.skip("numba not installed")
     grid = MultipleScatteringGrid(n_altitude=5, n_sun=7, n_mu=6, n_phi=5)
     atm = qd.prepare_atmosphere(ac.earth_turbidity_atmosphere(2.5))
-    M_slices = M._SLICE_GATHER
-    M._SLICE_GATHER = False  # the per-cell located samples (the caller's rays' gather)
-    try:
-        st = M._FieldState(atm, grid, 0.0)
-    finally:
-        M._SLICE_GATHER = M_slices
+    monkeypatch.setattr(M, "_SLICE_GATHER", False)  # the per-cell located samples
+    st = M._FieldState(atm, grid, 0.0)
     f = st.field
     S = st._source(st.L)
     logS = M._log_source(f, S.reshape(f.shape_out + (-1,)))

@@ -77,11 +77,13 @@ def channel_max(a: np.ndarray) -> np.ndarray:
     return np.maximum.reduce(parts) if parts else np.full(C, -np.inf)
 
 
-def log_table(table: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
+def log_table(table: np.ndarray, out: np.ndarray | None = None,
+              floor: np.ndarray | None = None) -> np.ndarray:
     """``log S`` of a source table (..., C), floored at :data:`LOG_FLOOR` × each channel's
     maximum (and at the smallest normal number); ``out``: an array of the table's shape
-    to write into (it may be a strided view)."""
-    floor = log_floor(table)
+    to write into (it may be a strided view); ``floor``: :func:`log_floor` of a larger
+    table this one is a part of (default: this table's)."""
+    floor = log_floor(table) if floor is None else floor
     out = np.maximum(table, floor, out=out)
     return np.log(out, out=out)
 

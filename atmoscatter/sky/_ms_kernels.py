@@ -292,15 +292,11 @@ def order1_path(sigma, rr, s0, r0, s_z, nu, mu, h, wt, P, keep, h_nodes, tau, R,
     (:func:`sun_transmittance`).  The compiled twin of the NumPy order 1 of
     :class:`multiple._FieldState` (which forms the same sums with ``einsum``)."""
     N, M = sigma.shape
-    t = np.empty(wt.shape[3])
-    path[:, :] = 0.0
     for n in range(N):
         for m in range(M):
-            ms, cphi = _local_sun(r0, s_z, sigma[n, m], s0[n], nu[n], rr[n, m], mu[n, m])
-            mus_out[n, m] = ms
-            cphi_out[n, m] = cphi
-            if keep[n, m]:
-                _add_order1(h_nodes, tau, R, top, h[n, m], ms, wt, P, n, m, t, path)
+            mus_out[n, m], cphi_out[n, m] = _local_sun(r0, s_z, sigma[n, m], s0[n], nu[n],
+                                                       rr[n, m], mu[n, m])
+    _order1_pass(sigma, rr, s0, r0, s_z, nu, mu, h, wt, P, keep, h_nodes, tau, R, top, path)
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
@@ -320,7 +316,7 @@ def order1_located(sigma, rr, s0, r0, s_z, nu, mu, h, wt, P, keep, h_nodes, tau,
 @numba.njit(cache=True, nogil=True, error_model="numpy")
 def _order1_pass(sigma, rr, s0, r0, s_z, nu, mu, h, wt, P, keep, h_nodes, tau, R, top,
                  path):  # pragma: no cover - compiled
-    """The path of :func:`order1_path` alone (no local angles written)."""
+    """The single-scattering path of :func:`order1_path` (no local angles written)."""
     N, M = sigma.shape
     t = np.empty(wt.shape[3])
     path[:, :] = 0.0

@@ -119,6 +119,7 @@ from ._ms_gather import gather as _gather_kernel
 from ._ms_gather import have_kernel as _have_kernel
 from ._ms_gather import kernel as _ms_kernel
 from ._ms_gather import log_floor as _log_floor
+from ._ms_gather import log_table as _log_table
 from ._ms_gather import pack_weights as _pack_weights
 from ._single_rules import _Batch, _extinction_scale
 from ._sky_table import _SkyTable
@@ -1122,9 +1123,9 @@ def _refine_log(field: _Field, logt: np.ndarray, out: np.ndarray | None = None) 
         nodes[...] = logt  # (else logt is the node rows themselves: _log_source)
     if r == 1:
         return out
+    i0, w = _refine_weights(field)
     kern = _ms_kernel("refine_intervals") if logt.dtype == np.float64 else None
     if kern is not None:
-        i0, w = _refine_weights(field)
         flat_in = nodes.reshape(n, -1)  # the node rows (a view)
         flat_out = out.reshape(out.shape[0], -1)
         step = max(1, -(-(n - 1) // (2 * _THREADS)))
@@ -1135,16 +1136,12 @@ def _refine_log(field: _Field, logt: np.ndarray, out: np.ndarray | None = None) 
     def interval(i):  # the values inserted between nodes i and i + 1 (one thread each)
         a, b = logt[i], logt[i + 1]
         lo, hi = np.minimum(a, b), np.maximum(a, b)
-        i0 = min(max(i - 1, 0), max(n - 4, 0))
-        xs = h[i0 : i0 + 4]
+        q0 = i0[i]
         for k in range(1, r):
-            x = h[i] + (h[i + 1] - h[i]) * k / r
-            if xs.size < 4:  # too few nodes for a cubic: the linear step
+            if q0 < 0:  # too few nodes for a cubic: the linear step
                 mid = a + (b - a) * (k / r)
             else:
-                w = [np.prod([(x - xs[m]) / (xs[q] - xs[m]) for m in range(4) if m != q])
-                     for q in range(4)]
-                mid = sum(w[q] * logt[i0 + q] for q in range(4))
+                mid = sum(w[i, k - 1, q] * logt[q0 + q] for q in range(4))
             np.clip(mid, lo, hi, out=out[r * i + k])
 
     _run_cells(interval, list(range(n - 1)))
@@ -1185,11 +1182,11 @@ def _log_source(field: _Field, S_flat: np.ndarray, out: np.ndarray | None = None
         out = np.empty(shape)
     nodes = out[0 :: field.grid.altitude_refine]
     S_flat = np.ascontiguousarray(S_flat)
-    floor = _log_floor(S_flat)  # (:func:`._ms_gather.log_table`, by altitudes in threads)
+    floor = _log_floor(S_flat)  # the whole table's, for each part (by altitudes, in threads)
 
     def part(a):
         sl = slice(a, a + step)
-        np.log(np.maximum(S_flat[sl], floor, out=nodes[sl]), out=nodes[sl])
+        _log_table(S_flat[sl], out=nodes[sl], floor=floor)
 
     step = max(1, -(-S_flat.shape[0] // (2 * _THREADS)))
     _run_cells(part, list(range(0, S_flat.shape[0], step)))
@@ -1307,7 +1304,7 @@ class _FieldState:
             # function is constant along a straight ray) + ground-reflected direct sun
             P = np.stack([np.asarray(ph(np.clip(dirs @ s, -1.0, 1.0)), dtype=float)
                           for _, _, ph in atm.scatterers], axis=-1)  # (N, n_sc)
-            if self.slices:  # order 1 and the stencils of the slice gather in one pass
+            if self.slices:  # order 1 and the stencils of the slice gather, one kernel call
                 path, mus_end = self.rays[i].order1(j, vm, s, P, keep, sun_t)
             else:
                 mc, path = _order1(vm, s, P, keep, sun_t, self.use_kernel)
@@ -1502,7 +1499,6 @@ class _FieldState:
                 if old is None or old.shape != prev.shape or any(old is x for x in self.S):
                     old = None
                 sums[(a, b)] = np.add(prev, self._order(b - 1), out=old)
-            sums.pop((a, b - 2), None)
         return sums[(a, b)].copy() if copy else sums[(a, b)]
 
     def _order(self, k: int) -> np.ndarray:
@@ -1906,7 +1902,6 @@ class _NodeRays:
         self.fp = np.empty((K, n_s, n_phi), dtype=np.float32)
         self.th_nodes = np.ascontiguousarray(field.ths, dtype=np.float64)
         self.inv = _ms_kernel("lagrange_inverse_denominators")(self.th_nodes)
-        self.n_phi = n_phi
         self.ground = vm.ground
         self.t_end = vm.t_end
         self.mus_end = np.empty((n_s, N))
@@ -1914,7 +1909,7 @@ class _NodeRays:
     def order1(self, j: int, vm: _ViewMarch, s: np.ndarray, P: np.ndarray, keep: np.ndarray,
                sun_t: _SunTransmittance):
         """Order 1 of solar-zenith node ``j`` (sun ``s``) of these rays — the path of
-        :func:`_order1`, (N, nwl) — in one compiled pass that also fills the node's
+        :func:`_order1`, (N, nwl) — in one compiled call that also fills the node's
         stencils (:func:`._ms_kernels.order1_located`); returns ``(path, mus_end)``."""
         N, M = vm.h.shape
         nu, mus_end = _sun_at_ends(vm, s)
