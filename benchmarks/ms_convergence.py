@@ -189,9 +189,8 @@ KNOB_SCENES = {
     "space_n_mu": lambda name: SCENES[name][2] > 100e3,
     "horizon_n_sun": _near_horizon,
     "horizon_n_phi": _near_horizon,
-    "band_orders_from": lambda name: SCENES[name][2] <= 100e3,  # off from space anyway
-    "band_width": lambda name: (SCENES[name][2] <= 100e3
-                                and SCENES[name][1] >= ms.TWILIGHT_BAND_ELEVATION),
+    # (from space both widen by the observer's dip: MultipleScatteringGrid.for_sun)
+    "band_width": lambda name: SCENES[name][1] >= ms.TWILIGHT_BAND_ELEVATION,
 }
 #: atmospheres of the one-knob sweep in the full run (the others: default grid only)
 SWEEP_ATMOSPHERES = ("earth_t2.5",)
