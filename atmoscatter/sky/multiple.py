@@ -1336,6 +1336,13 @@ class _FieldState:
         self._sums: dict = {}  # running sums of the sources (:meth:`_prefix`)
         self._brightest: dict = {}  # per order, its source's maximum (:meth:`_check_growth`)
         self._table = None  # the buffer of each order's gather table (:meth:`_next_field`)
+        self._outs = None  # the buffers of the slice gather's sums (:meth:`_slice_orders`)
+        self._spare = None  # a field no order reads any more: the next order's buffer
+
+    def drop_buffers(self):
+        """Let go of the working buffers kept between orders (the gather table, the slice
+        gather's sums, the spare field): made again if the state is extended."""
+        self._table = self._outs = self._spare = None
         self._scaled = None  # (band, outside slices, factors) of the order just extrapolated
 
     def _high_from(self):
@@ -1385,7 +1392,13 @@ class _FieldState:
     def _next_field(self, S):
         f = self.field
         E = _ground_irradiance(f, self.L) if self.albedo > 0 else None
-        Lnew = np.zeros_like(self.L)
+        # the field two orders back, which nothing reads any more, takes the new one (a
+        # fresh array per order cost its page faults each time)
+        Lnew, self._spare = self._spare, None
+        if Lnew is None or Lnew.shape != self.L.shape or Lnew.dtype != self.L.dtype:
+            Lnew = np.zeros_like(self.L)
+        else:
+            Lnew.fill(0.0)
         n_mu, n_phi = f.shape[2:]
         nsc, nwl = S.shape[-2:]
         # once per order, into one buffer reused by every order (a fresh 0.1 GB table per
@@ -1435,9 +1448,13 @@ class _FieldState:
         n_r, n_s, n_mu, n_phi = f.shape
         nsc, nwl = len(self.atm.scatterers), self.atm.n_wavelengths
         nj = j_hi - j_lo
-        # per altitude, one array per slab of channels of the table (six at a time)
-        outs = [[np.zeros((n_s, n_mu, n_phi, c1 - c0)) for c0, c1, _ in logS.blocks]
-                for _ in range(n_r)]
+        # per altitude, one array per slab of channels of the table (six at a time), kept
+        # for every order: each unit zeroes the part it adds to (fresh arrays, 46 MB per
+        # order from space, cost more in page faults than the zeroing)
+        shapes = [(n_s, n_mu, n_phi, c1 - c0) for c0, c1, _ in logS.blocks]
+        if self._outs is None or [b.shape for b in self._outs[0]] != shapes:
+            self._outs = [[np.empty(sh) for sh in shapes] for _ in range(n_r)]
+        outs = self._outs
         step = max(1, n_mu // 4)
         units = [(i, k) for i in range(n_r) for k in range(0, n_mu, step)]
 
@@ -1445,6 +1462,8 @@ class _FieldState:
             i, k0 = ik
             k1 = min(k0 + step, n_mu)
             rays = self.rays[i]
+            for b in outs[i]:
+                b[j_lo:j_hi, k0:k1] = 0.0
             rays.gather(logS, k0, k1, j_lo, j_hi, outs[i])
             o = np.concatenate([b[j_lo:j_hi, k0:k1] for b in outs[i]], axis=-1)
             o = o.reshape(nj, k1 - k0, n_phi, nsc, nwl)
@@ -1558,7 +1577,9 @@ class _FieldState:
         self._scaled = None
         if self.S:
             new = self._next_field(self.S[-1])
-            self._L_prev, self.L = self.L, new  # _extrapolate_outside reads both
+            # _extrapolate_outside reads both; the one before them is read no more
+            self._spare = self._L_prev if self._L_prev is not self.L else None
+            self._L_prev, self.L = self.L, new
         if self._scaled is None or self.S[-1] is None:
             S = self._source(self.L)
         else:
@@ -1664,6 +1685,7 @@ class _FieldState:
         """
         k = 2
         g_prev = None
+        g_bufs = []  # the spare buffer of the decay test's g (_decay_test's out)
         K = self._high_from()
         band = self.field.band
         # the nodes the test looks at (a band exists only without high_orders, and is a
@@ -1694,19 +1716,26 @@ class _FieldState:
                 # the test reads the band only: r, g and the tail are formed there (the
                 # same values, elementwise, as over the whole grid); the tail added to the
                 # sum is formed everywhere, once, at the stop
-                g, rel, drift = _decay_test(last, prev, total, floor, r_all, test, g_prev)
+                # two buffers for g, taken in turn (g_prev is the other one)
+                spare = g_bufs.pop() if g_bufs else None
+                g, rel, drift = _decay_test(last, prev, total, floor, r_all, test, g_prev,
+                                            out=spare)
                 if accelerate <= 1.0:
                     if rel <= tol or k >= max_orders:
                         return self._on_grid(*self._split(k - 1)), k, rel
                 else:
                     if (rel <= accelerate * tol and rel * drift <= tol) or rel <= tol:
                         # the tail lives on the grid of the last order
-                        low, high = self._split(k - 1)
-                        tail = last * (g if band is None else _growth(last, prev, floor, r_all, slice(None)))
-                        with_tail = (low, high + tail) if on_high else (low + tail, None)
-                        return self._on_grid(*with_tail), k, rel * min(drift, 1.0)
+                        low, high = self._split(k - 1)  # (fresh arrays: added to in place)
+                        if band is not None:  # g over every node, by the same compiled pass
+                            g = _decay_test(last, prev, total, floor, r_all, slice(None), None)[0]
+                        tail = np.multiply(last, g, out=g)
+                        np.add(high if on_high else low, tail, out=high if on_high else low)
+                        return self._on_grid(low, high), k, rel * min(drift, 1.0)
                     if k >= max_orders:
                         return self._on_grid(*self._split(k - 1)), k, rel
+                if g_prev is not None and g_prev.flags.c_contiguous:
+                    g_bufs.append(g_prev)
                 g_prev = g
             k += 1
 
@@ -1717,13 +1746,15 @@ def _outside(band: np.ndarray, n: int) -> tuple[slice, slice]:
     return slice(0, int(band[0])), slice(int(band[-1]) + 1, n)
 
 
-def _decay_test(last, prev, total, floor, r_all, sl, g_prev):
+def _decay_test(last, prev, total, floor, r_all, sl, g_prev, out=None):
     """``(g, rel, drift)`` of :meth:`_FieldState.converged_sum`'s decay test on the
     solar-zenith nodes ``sl``: ``g`` = :func:`_growth`, ``rel`` the largest tail
     relative to the sum, ``last g/(total + floor)``, and ``drift`` the largest relative
     change of ``g`` since ``g_prev`` where ``last`` is above the floor (``inf`` without
     ``g_prev``).  One compiled pass where available (in NumPy these were six passes with
-    temporaries over the band, 40 ms per order of the default grid); the same values."""
+    temporaries over the band, 40 ms per order of the default grid); the same values.
+    ``out``: a C-contiguous array of ``g``'s shape to write ``g`` into (not ``g_prev``;
+    a fresh array per order cost up to 0.2 s of page faults from space)."""
     kern = _ms_kernel("decay_test")
     if kern is None:
         g = _growth(last, prev, floor, r_all, sl)
@@ -1738,7 +1769,8 @@ def _decay_test(last, prev, total, floor, r_all, sl, g_prev):
     shape3 = (n_r, nc, -1)
     fl = (np.ascontiguousarray(floor[:, sl].reshape(nc, nwl)) if np.ndim(floor)
           else np.full((nc, nwl), float(floor)))
-    g = np.empty(lt.shape)
+    g = (out if (out is not None and out.shape == lt.shape and out.flags.c_contiguous
+                 and out is not g_prev) else np.empty(lt.shape))
     gp = g_prev if g_prev is not None else g
     rel, drift = kern(lt.reshape(shape3), pv.reshape(shape3), tt.reshape(shape3), fl,
                       float(r_all), gp.reshape(shape3), g_prev is not None, g.reshape(shape3))
@@ -2180,7 +2212,7 @@ def _field_for(atm_obj, atm, grid, albedo, orders, tol=None):
                 # the state's memory) go, and are marched again if more orders are asked
                 st.marches.clear()
                 st.rays.clear()
-                st._table = None
+            st.drop_buffers()
             # the states grew while they computed: hold the caches to their budget
             _trim(_CACHE, _CACHE_MAX, _CACHE_BYTES)
         return {"S_sum": S_sum, "orders": np.array(n), "tail": np.array(tail)}
