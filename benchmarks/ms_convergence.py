@@ -84,6 +84,8 @@ SCENES = {
     "deep_twilight": ("earth_t2.5", -15.0, 0.0, _GROUND_ZENITH),
     "observer_12km": ("earth_t2.5", 30.0, 12e3, _ELEVATED_ZENITH),
     "space_limb": ("earth_t2.5", 10.0, 500e3, _LIMB_ZENITH),
+    # the sun high seen from space (its grid takes space_day_n_sun)
+    "space_limb_day": ("earth_t2.5", 45.0, 500e3, _LIMB_ZENITH),
     "mars": ("mars", 30.0, 0.0, _GROUND_ZENITH),
     # the sun at the terminator, seen from the ground, from 12 km and from space: measured
     # on the default grid (and the named grids of ms_accurate_grid.py), not swept
@@ -99,7 +101,7 @@ SCENES = {
 #: the scenes of the one-knob sweep (the others: default grid only, the table's row
 #: ``default``)
 SWEEP_SCENES = ("clear_noon", "sunset", "civil_twilight", "nautical_twilight", "deep_twilight",
-                "observer_12km", "space_limb")
+                "observer_12km", "space_limb", "space_limb_day")
 
 DEFAULT = (ms.MULTIPLE_SCATTERING_GRID, ms.DEFAULT_ORDER_TOLERANCE)
 #: finer than every named grid in every knob but the solar zenith in daylight (see
@@ -156,6 +158,7 @@ KNOBS = {
     "n_mu": (24, 32, 36),
     "n_phi": (13, 17, 19, 21),
     "space_n_mu": (32, 36),
+    "space_day_n_sun": (10, 16),
     "horizon_n_sun": (16, 24),
     "horizon_n_phi": (13, 17, 19, 21),
     "n_altitude": (24, 32),
@@ -181,9 +184,18 @@ def _near_horizon(name):
 #: knobs that change only some scenes' grids: the other scenes are not recomputed for them
 #: (their values are the default's; the table shows "—"); n_sun and n_phi do not reach the
 #: scenes near the horizon, whose grids take horizon_n_sun and horizon_n_phi instead, nor
-#: n_mu the observers above the atmosphere (space_n_mu)
+#: n_mu the observers above the atmosphere (space_n_mu), nor n_sun those with the sun
+#: high (space_day_n_sun)
+def _space_day(name):
+    """Whether scene ``name``'s grid takes the default's ``space_day_n_sun`` (an observer
+    above the atmosphere, the sun at least ``SPACE_DAY_ELEVATION`` up)."""
+    _, elevation, altitude, _ = SCENES[name]
+    return altitude > 100e3 and elevation >= ms.SPACE_DAY_ELEVATION
+
+
 KNOB_SCENES = {
-    "n_sun": lambda name: not _near_horizon(name),
+    "n_sun": lambda name: not (_near_horizon(name) or _space_day(name)),
+    "space_day_n_sun": _space_day,
     "n_phi": lambda name: not _near_horizon(name),
     "n_mu": lambda name: SCENES[name][2] <= 100e3,
     "space_n_mu": lambda name: SCENES[name][2] > 100e3,
@@ -565,10 +577,13 @@ def _grid_text(cfg):
         text += f", solar zenith centred on the sun (±{g.sun_width:g}°)"
         if g.band_orders_from is not None:
             text += (f", orders ≥ {g.band_orders_from} in the band of ±{g._band_width():g}° "
-                     f"(±{g.sun_width:g}° below {ms.TWILIGHT_BAND_ELEVATION:g}°) with the "
-                     "observer in the atmosphere")
+                     f"(±{g.sun_width:g}° below {ms.TWILIGHT_BAND_ELEVATION:g}°; both wider "
+                     "by the dip from space)")
     if g.space_n_mu is not None:
         text += f", n_mu {g.space_n_mu} for an observer in space"
+    if g.space_day_n_sun is not None:
+        text += (f", n_sun {g.space_day_n_sun} for an observer in space with the sun "
+                 f"{ms.SPACE_DAY_ELEVATION:g}° or more up")
     near = [f"{name} {value}" for name, value in (("n_sun", g.horizon_n_sun),
                                                   ("n_phi", g.horizon_n_phi))
             if value is not None]

@@ -280,7 +280,8 @@ def test_large_batches_give_the_answer_of_small_ones(monkeypatch, turbidity, sun
      ({"space_n_mu": 0}, "space_n_mu must be None or an even integer >= 2"),
      ({"horizon_n_sun": 3}, "horizon_n_sun must be None or an integer >= 4"),
      ({"horizon_n_phi": 1}, "horizon_n_phi must be None or an integer >= 2"),
-     ({"horizon_n_phi": 19.0}, "horizon_n_phi must be None or an integer >= 2")],
+     ({"horizon_n_phi": 19.0}, "horizon_n_phi must be None or an integer >= 2"),
+     ({"space_day_n_sun": 3}, "space_day_n_sun must be None or an integer >= 4")],
 )
 def test_bad_grid_is_a_one_line_error(kwargs, match):
     with pytest.raises(ValueError, match=match) as err:
@@ -895,6 +896,20 @@ def test_scene_grid_widens_for_observers_above_the_atmosphere():
     assert wide.n_mu == g.space_n_mu and g.for_sun(80.0).n_mu == g.n_mu
     assert replace(g, space_n_mu=None).for_sun(80.0, 22.0).n_mu == g.n_mu
     assert f"n_mu {g.space_n_mu} for an observer above the atmosphere" in g.describe()
+    # with the sun SPACE_DAY_ELEVATION or more above the horizon, space_day_n_sun nodes
+    # before the widening (the air seen from space stays far from the terminator); the
+    # limit is inclusive, and inside the atmosphere nothing changes
+    from atmoscatter.sky import multiple as M
+
+    assert g.space_day_n_sun is not None and g.space_day_n_sun < g.n_sun
+    top = 90.0 - M.SPACE_DAY_ELEVATION
+    for zen in (0.0, 30.0, top):
+        day = g.for_sun(zen, 22.0)
+        assert day.n_sun == int(np.ceil(g.space_day_n_sun * day.sun_width / g.sun_width)), zen
+        assert g.for_sun(zen).n_sun == g.n_sun, zen
+    assert g.for_sun(top + 0.01, 22.0).n_sun == wide.n_sun
+    assert replace(g, space_day_n_sun=None).for_sun(30.0, 22.0).n_sun == wide.n_sun
+    assert f"n_sun {g.space_day_n_sun} with the sun" in g.describe()
     # a sun near the horizon: horizon_n_sun nodes inside the atmosphere (the terminator
     # crosses the air the scene sees), the widened n_sun from space; the band's edges
     # belong to it

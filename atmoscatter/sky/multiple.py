@@ -254,6 +254,16 @@ class MultipleScatteringGrid:
         the 3 % bound, with 19 within it; with the sun higher 17 and 19 give the same
         errors to the study's digits, for a shorter first call
         (``docs/convergence.md``, ``benchmarks/bench_multiple.py``).
+    space_day_n_sun : int or None
+        Solar-zenith nodes (≥ 4, before the widening by the dip) used instead of ``n_sun``
+        by :meth:`for_sun` for an observer above the atmosphere with the sun at least
+        :data:`SPACE_DAY_ELEVATION` above its horizon (``None``, the dataclass default:
+        ``n_sun``).  Such an observer sees, and is lit by, air whose own sun stays high,
+        where the field changes slowly with the solar zenith; nearer the terminator the
+        widened band keeps the spacing of ``n_sun``.  From 500 km, over the disc and across
+        the limb, 10 nodes against 24 (T 2.5): 3e-6, 1.2e-5, 3.5e-4, 3.3e-3 and 5.7e-3 at
+        sun 60°, 45°, 30°, 20° and 10°; at 30° 2.1e-4 (T 1.5) and 4.7e-4 (T 10)
+        (``docs/convergence.md``).
     """
 
     n_altitude: int = 20
@@ -274,6 +284,7 @@ class MultipleScatteringGrid:
     space_n_mu: int | None = None
     horizon_n_sun: int | None = None
     horizon_n_phi: int | None = None
+    space_day_n_sun: int | None = None
 
     def __post_init__(self):
         for name in ("n_altitude", "n_sun", "n_mu", "n_phi", "order", "altitude_refine",
@@ -314,7 +325,8 @@ class MultipleScatteringGrid:
                     f"max_sun_zenith={self.max_sun_zenith:g}] deg, got {z!r}"
                 )
         for name, low, even in (("band_orders_from", 3, False), ("space_n_mu", 2, True),
-                                ("horizon_n_sun", 4, False), ("horizon_n_phi", 2, False)):
+                                ("horizon_n_sun", 4, False), ("horizon_n_phi", 2, False),
+                                ("space_day_n_sun", 4, False)):
             m = getattr(self, name)
             if m is not None and (isinstance(m, bool) or not isinstance(m, (int, np.integer))
                                   or m < low or (even and m % 2)):
@@ -350,7 +362,8 @@ class MultipleScatteringGrid:
                          if f.name not in ("high_orders", "high_orders_from", "sun_nodes",
                                            "sun_zenith", "sun_width", "band_orders_from",
                                            "band_width",
-                                           "space_n_mu", "horizon_n_sun", "horizon_n_phi"))
+                                           "space_n_mu", "horizon_n_sun", "horizon_n_phi",
+                                           "space_day_n_sun"))
         if self.sun_nodes == "scene":
             text += (f"; solar-zenith nodes centred on the scene's sun (±{self.sun_width:g}° "
                      "band; one field per sun)")
@@ -376,6 +389,9 @@ class MultipleScatteringGrid:
                              "horizon (observer in the atmosphere)")
                 if self.space_n_mu is not None:
                     text += f"; n_mu {self.space_n_mu} for an observer above the atmosphere"
+                if self.space_day_n_sun is not None:
+                    text += (f" (n_sun {self.space_day_n_sun} with the sun "
+                             f"{SPACE_DAY_ELEVATION:g}° or more above its horizon)")
         else:
             text += "; solar-zenith nodes for every sun (one field per atmosphere)"
         if self.high_orders is not None:
@@ -455,7 +471,9 @@ class MultipleScatteringGrid:
         -------
         MultipleScatteringGrid
             With ``sun_zenith`` (and, for ``observer_dip > 0``, ``sun_width``, ``n_sun``
-            and, if ``space_n_mu`` is set, ``n_mu = space_n_mu``; for a sun near the
+            — from ``space_day_n_sun`` where it is set and the sun is at least
+            :data:`SPACE_DAY_ELEVATION` up — and, if ``space_n_mu`` is set,
+            ``n_mu = space_n_mu``; for a sun near the
             horizon inside the atmosphere, ``n_sun = horizon_n_sun`` and
             ``n_phi = horizon_n_phi`` where they are set) set, and ``band_width`` that
             of the sun's regime (:data:`TWILIGHT_BAND_ELEVATION`) plus the dip; a grid
@@ -481,6 +499,9 @@ class MultipleScatteringGrid:
         elevation = 90.0 - z
         near_horizon = dip == 0.0 and lo - _LIMIT_SLACK <= elevation <= hi + _LIMIT_SLACK
         n_sun = self.horizon_n_sun if (near_horizon and self.horizon_n_sun is not None) else self.n_sun
+        if (dip > 0.0 and self.space_day_n_sun is not None
+                and elevation >= SPACE_DAY_ELEVATION - _LIMIT_SLACK):
+            n_sun = self.space_day_n_sun
         n = int(np.ceil(n_sun * width / float(self.sun_width)))
         # in twilight the band takes the full sun_width (TWILIGHT_BAND_ELEVATION); from
         # space it widens by the dip, as sun_width does (None: sun_width, widened above)
@@ -505,6 +526,12 @@ The band was −8° to +6° until the deep-twilight scenes were measured; betwee
 16 nodes were within the bounds too, so extending it there costs those suns a longer first
 call for no measured need, against one band instead of two (``docs/convergence.md``)."""
 
+SPACE_DAY_ELEVATION: float = 30.0
+"""Sun elevation [deg] (inclusive) from which :meth:`MultipleScatteringGrid.for_sun` gives an
+observer above the atmosphere ``space_day_n_sun`` solar-zenith nodes: measured from 500 km
+against 24 nodes, 10 nodes were within 5e-4 from 30° up and 3.3e-3 and 5.7e-3 off at 20° and
+10°, where the air seen from space reaches the terminator (``docs/convergence.md``)."""
+
 #: slack [deg] of the inclusive sun-elevation limits of :meth:`MultipleScatteringGrid.for_sun`
 #: (round-off of a zenith angle computed from a direction vector, ~1e-14°)
 _LIMIT_SLACK = 1e-9
@@ -519,7 +546,7 @@ MULTIPLE_SCATTERING_GRID = MultipleScatteringGrid(n_altitude=32, n_sun=16, n_mu=
                                                   sun_nodes="scene", band_orders_from=3,
                                                   band_width=6.0,
                                                   space_n_mu=36, horizon_n_sun=24,
-                                                  horizon_n_phi=19)
+                                                  horizon_n_phi=19, space_day_n_sun=10)
 """Default grid: solar-zenith nodes centred on the scene's sun (one field per sun), finer in
 altitude (haze) and view zenith (the zenith cap, the limb) than :data:`TABLE_MULTIPLE_SCATTERING_GRID`
 for about the same first call;
@@ -527,7 +554,9 @@ orders from the third on are computed only in the band of nodes within 6° of th
 (``band_orders_from``, ``band_width``; within 12° with the sun below
 :data:`TWILIGHT_BAND_ELEVATION`; both wider by the observer's dip above the atmosphere,
 :meth:`MultipleScatteringGrid.for_sun`); for an observer above the atmosphere 36 view cosines
-(``space_n_mu``: 32 left the limb's total at the 1 % bound), and for a sun near or below
+(``space_n_mu``: 32 left the limb's total at the 1 % bound) and, with the sun 30° or more
+above its horizon, 10 solar-zenith nodes before the widening (``space_day_n_sun``: the air
+seen stays far from the terminator), and for a sun near or below
 the horizon (:data:`HORIZON_SUN_ELEVATION`, sunset and twilight down to −18°) 24
 solar-zenith nodes and 19 azimuths (``horizon_n_sun``, ``horizon_n_phi``: 16 nodes missed
 the bounds at and just below the horizon and at −12°, and were tens of per cent off
