@@ -119,6 +119,11 @@ GENERATORS: tuple[Generator, ...] = (
         notes="multiple scattering: the band of high orders, narrow and full, against every "
               "node computed (one answer)"),
     Generator(
+        "ms_space", "benchmarks/ms_space.py", (), ("--quick", "--out", "{out}"),
+        ("docs/convergence/ms_space.md",), "~6 min", full_needs="--with-ms-study",
+        notes="multiple scattering from space: the band widened by the dip against every "
+              "node, and space_day_n_sun against more solar-zenith nodes"),
+    Generator(
         "startup", "benchmarks/bench_startup.py", ("--write",), ("--quick",),
         ("docs/cli.md",), "~1 min", notes="start-up and first-render times of the CLI"),
     Generator(

@@ -212,8 +212,9 @@ class MultipleScatteringGrid:
         For observers above the atmosphere :meth:`for_sun` widens the band by the
         observer's dip, as it widens ``sun_width``: the band then holds all the air the
         observer sees, and the values over the disc and across the limb from 500 km moved
-        by less than 1e-5 against every order at every node (sun 30° to −6°), for a first
-        call about 20 % shorter (it was off from space until measured).
+        by at most 7e-6 (T 2.5, sun 60° to −6°) and 1.2e-4 (T 10, sun 30°) against every
+        order at every node (``docs/convergence/ms_space.md``), for a shorter first call
+        (it was off from space until measured).
     band_width : float or None
         Half-width [deg] of the band of ``band_orders_from``, in (0, 180] (``None``, the
         dataclass default: ``sun_width``).  The scene's own rays read the air within about
@@ -261,9 +262,9 @@ class MultipleScatteringGrid:
         ``n_sun``).  Such an observer sees, and is lit by, air whose own sun stays high,
         where the field changes slowly with the solar zenith; nearer the terminator the
         widened band keeps the spacing of ``n_sun``.  From 500 km, over the disc and across
-        the limb, 10 nodes against 24 (T 2.5): 3e-6, 1.2e-5, 3.5e-4, 3.3e-3 and 5.7e-3 at
-        sun 60°, 45°, 30°, 20° and 10°; at 30° 2.1e-4 (T 1.5) and 4.7e-4 (T 10)
-        (``docs/convergence.md``).
+        the limb, 10 nodes against 24 (T 2.5): 3.1e-6, 1.2e-5, 3.5e-4, 3.3e-3 and 3.3e-3 at
+        sun 60°, 45°, 30°, 20° and 10°, 1.1e-2 at −6°; at 30° 2.1e-4 (T 1.5) and 4.7e-4
+        (T 10) (``docs/convergence/ms_space.md``).
     """
 
     n_altitude: int = 20
@@ -529,8 +530,9 @@ call for no measured need, against one band instead of two (``docs/convergence.m
 SPACE_DAY_ELEVATION: float = 30.0
 """Sun elevation [deg] (inclusive) from which :meth:`MultipleScatteringGrid.for_sun` gives an
 observer above the atmosphere ``space_day_n_sun`` solar-zenith nodes: measured from 500 km
-against 24 nodes, 10 nodes were within 5e-4 from 30° up and 3.3e-3 and 5.7e-3 off at 20° and
-10°, where the air seen from space reaches the terminator (``docs/convergence.md``)."""
+against 24 nodes, 10 nodes were within 5e-4 from 30° up (T 1.5–10), 3.3e-3 off at 20° and
+10° and up to 1.1e-2 in twilight, where the air seen from space reaches the terminator
+(``docs/convergence/ms_space.md``)."""
 
 #: slack [deg] of the inclusive sun-elevation limits of :meth:`MultipleScatteringGrid.for_sun`
 #: (round-off of a zenith angle computed from a direction vector, ~1e-14°)
