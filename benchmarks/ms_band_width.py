@@ -123,20 +123,14 @@ def markdown(rows, grid, machine, command) -> str:
         lines.append(f"| {akey} | {el:g} | {alt:g} | {cells[0]} | {cells[1]} | "
                      f"{r['every node'][1]:.1f} |")
     worst = max(r["narrow"][0] for r in rows if r["scene"][1] >= lim)
-    lines += ["", f"Worst narrow band at and above sun {lim:g}°: {worst:.1e}.", "",
-              f"Grid: {grid.describe()}.", "", f"Machine: {machine}.", "",
-              f"Command: `{command}`."]
+    lines += ["", f"Worst narrow band at and above sun {lim:g}°: {worst:.1e}."]
+    lines += mc.page_footer(grid, machine, command)
     return "\n".join(lines) + "\n"
 
 
 def main(argv=None) -> int:
-    cl = mc.study_command_line(__file__, __doc__, "tiny grid, two scenes, temp dir", argv)
-    scenes, grid = (QUICK_SCENES, QUICK_GRID) if cl["quick"] else (SCENES, ms.MULTIPLE_SCATTERING_GRID)
-    t0 = time.perf_counter()
-    rows = run(scenes, grid)
-    text = markdown(rows, grid, mc.machine_text(), cl["command"])
-    mc.write_study_page(cl["out"], "ms_band_width.md", text, t0)
-    return 0
+    return mc.study_main(__file__, __doc__, "ms_band_width.md", (QUICK_SCENES, QUICK_GRID),
+                         (SCENES, ms.MULTIPLE_SCATTERING_GRID), run, markdown, argv)
 
 
 if __name__ == "__main__":

@@ -491,6 +491,25 @@ def study_command_line(script: str, doc: str, quick_help: str, argv=None) -> dic
             "official": not (args.quick or args.out)}
 
 
+def page_footer(grid, machine: str, command: str) -> list[str]:
+    """The closing lines of a study page: the grid, the machine and the command."""
+    return ["", f"Grid: {grid.describe()}.", "", f"Machine: {machine}.", "",
+            f"Command: `{command}`."]
+
+
+def study_main(script: str, doc: str, page: str, quick, full, run, markdown, argv=None) -> int:
+    """The ``main`` of a study that compares grids scene by scene: ``quick`` and ``full``
+    are ``(scenes, grid)``; ``run(scenes, grid)`` measures the rows and
+    ``markdown(rows, grid, machine, command)`` makes ``page`` of them, written into the
+    output directory of :func:`study_command_line`."""
+    cl = study_command_line(script, doc, "tiny grid, two scenes, temp dir", argv)
+    scenes, grid = quick if cl["quick"] else full
+    t0 = time.perf_counter()
+    rows = run(scenes, grid)
+    write_study_page(cl["out"], page, markdown(rows, grid, machine_text(), cl["command"]), t0)
+    return 0
+
+
 def write_study_page(out: Path, name: str, text: str, t0: float) -> None:
     """Write a study's page ``out/name`` atomically (creating ``out``), print it and say
     how long the run took since ``t0`` (``time.perf_counter``)."""

@@ -160,19 +160,13 @@ def markdown(rows, grid, machine, command) -> str:
     if below:
         lines.append(f"Worst of {grid.space_day_n_sun} nodes below {lim:g}°, where the "
                      f"default does not take them: {max(below):.1e}.")
-    lines += ["", f"Grid: {grid.describe()}.", "", f"Machine: {machine}.", "",
-              f"Command: `{command}`."]
+    lines += mc.page_footer(grid, machine, command)
     return "\n".join(lines) + "\n"
 
 
 def main(argv=None) -> int:
-    cl = mc.study_command_line(__file__, __doc__, "tiny grid, two scenes, temp dir", argv)
-    scenes, grid = (QUICK_SCENES, QUICK_GRID) if cl["quick"] else (SCENES, ms.MULTIPLE_SCATTERING_GRID)
-    t0 = time.perf_counter()
-    rows = run(scenes, grid)
-    text = markdown(rows, grid, mc.machine_text(), cl["command"])
-    mc.write_study_page(cl["out"], "ms_space.md", text, t0)
-    return 0
+    return mc.study_main(__file__, __doc__, "ms_space.md", (QUICK_SCENES, QUICK_GRID),
+                         (SCENES, ms.MULTIPLE_SCATTERING_GRID), run, markdown, argv)
 
 
 if __name__ == "__main__":

@@ -910,6 +910,9 @@ def test_scene_grid_widens_for_observers_above_the_atmosphere():
     assert g.for_sun(top + 0.01, 22.0).n_sun == wide.n_sun
     assert replace(g, space_day_n_sun=None).for_sun(30.0, 22.0).n_sun == wide.n_sun
     assert f"n_sun {g.space_day_n_sun} with the sun" in g.describe()
+    alone = replace(g, space_n_mu=None).describe()
+    assert f"n_sun {g.space_day_n_sun} with the sun" in alone
+    assert "horizon for an observer above the atmosphere" in alone
     # a sun near the horizon: horizon_n_sun nodes inside the atmosphere (the terminator
     # crosses the air the scene sees), the widened n_sun from space; the band's edges
     # belong to it

@@ -391,8 +391,10 @@ class MultipleScatteringGrid:
                 if self.space_n_mu is not None:
                     text += f"; n_mu {self.space_n_mu} for an observer above the atmosphere"
                 if self.space_day_n_sun is not None:
-                    text += (f" (n_sun {self.space_day_n_sun} with the sun "
-                             f"{SPACE_DAY_ELEVATION:g}° or more above its horizon)")
+                    day = (f"n_sun {self.space_day_n_sun} with the sun "
+                           f"{SPACE_DAY_ELEVATION:g}° or more above its horizon")
+                    text += (f" ({day})" if self.space_n_mu is not None
+                             else f"; {day} for an observer above the atmosphere")
         else:
             text += "; solar-zenith nodes for every sun (one field per atmosphere)"
         if self.high_orders is not None:
