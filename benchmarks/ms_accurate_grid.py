@@ -38,12 +38,12 @@ GRIDS = {"default": mc.DEFAULT,
          "table": (ms.TABLE_MULTIPLE_SCATTERING_GRID, ms.DEFAULT_ORDER_TOLERANCE)}
 #: grids measured beside the named ones (rows of the table, not in ms_accuracy.json)
 CANDIDATES = {
-    # the default grid before 36 view cosines from space and 24 solar-zenith nodes and 19
-    # azimuths near the horizon (CHANGELOG): what the three knobs bought, at sunset, near
-    # the terminator and across the limb
+    # the default grid before 36 view cosines from space, 24 solar-zenith nodes and 19
+    # azimuths near the horizon (CHANGELOG) and 10 solar-zenith nodes from space with the
+    # sun high: what those knobs bought, at sunset, near the terminator and across the limb
     "former default": (
         replace(ms.MULTIPLE_SCATTERING_GRID, space_n_mu=None, horizon_n_sun=None,
-                horizon_n_phi=None),
+                horizon_n_phi=None, space_day_n_sun=None),
         ms.DEFAULT_ORDER_TOLERANCE),
 }
 QUICK_REFERENCE = mc.QUICK_REFERENCE
