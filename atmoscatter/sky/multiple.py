@@ -1613,7 +1613,7 @@ class _FieldState:
         if self.S:
             new = self._next_field(self.S[-1])
             # _extrapolate_outside reads both; the one before them is read no more
-            self._spare = self._L_prev if self._L_prev is not self.L else None
+            self._spare = self._L_prev
             self._L_prev, self.L = self.L, new
         if self._scaled is None or self.S[-1] is None:
             S = self._source(self.L)
@@ -1720,7 +1720,7 @@ class _FieldState:
         """
         k = 2
         g_prev = None
-        g_bufs = []  # the spare buffer of the decay test's g (_decay_test's out)
+        spare = None  # the decay test's other buffer for g (_decay_test's out)
         K = self._high_from()
         band = self.field.band
         # the nodes the test looks at (a band exists only without high_orders, and is a
@@ -1752,7 +1752,6 @@ class _FieldState:
                 # same values, elementwise, as over the whole grid); the tail added to the
                 # sum is formed everywhere, once, at the stop
                 # two buffers for g, taken in turn (g_prev is the other one)
-                spare = g_bufs.pop() if g_bufs else None
                 g, rel, drift = _decay_test(last, prev, total, floor, r_all, test, g_prev,
                                             out=spare)
                 if accelerate <= 1.0:
@@ -1769,9 +1768,7 @@ class _FieldState:
                         return self._on_grid(low, high), k, rel * min(drift, 1.0)
                     if k >= max_orders:
                         return self._on_grid(*self._split(k - 1)), k, rel
-                if g_prev is not None and g_prev.flags.c_contiguous:
-                    g_bufs.append(g_prev)
-                g_prev = g
+                spare, g_prev = g_prev, g
             k += 1
 
 
